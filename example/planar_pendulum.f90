@@ -1,0 +1,3 @@
+program planar_pendulum
+    implicit none
+end program planar_pendulum

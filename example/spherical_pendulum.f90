@@ -1,0 +1,3 @@
+program spherical_pendulum
+    implicit none
+end program spherical_pendulum

@@ -1,0 +1,3 @@
+program spring_linkage
+    implicit none
+end program spring_linkage

@@ -1,0 +1,362 @@
+!> The integrator: set up with (M, N, G), advance a state by one step or many.
+!!
+!! `step` advances (q, p) by h in place and leaves them unchanged on failure.
+!! `integrate` runs many steps with compensated summation of the increments (round-off
+!! grows like the square root of the step count), reports each step to an optional
+!! observer, and on failure keeps the state of the last good step.
+module holosym_integrator
+    use holosym_kinds, only: wp
+    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+        HOLOSYM_SUCCESS, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
+        HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
+        HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
+        HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX
+    use holosym_problem, only: constrained_hamiltonian
+    use holosym_newton, only: newton_settings_t, newton_report_t, newton_solve
+    use holosym_scheme, only: discrete_scheme
+    use holosym_manifold, only: manifold_residuals, manifold_tolerance_default
+    implicit none
+    private
+
+    public :: constrained_integrator, step_info_t, step_observer
+
+    !> What one step did and how well the constraints hold after it.
+    type :: step_info_t
+        !> Newton iterations of the step.
+        integer :: newton_iterations = 0
+        !> max |phi| over the step's displacement nodes q_0..q_M.
+        real(wp) :: constraint_residual = 0
+        !> max |Phi(q_b) H_p(q_b, p_b)| at the step end (hidden constraint).
+        real(wp) :: velocity_residual = 0
+        !> Smallest relative pivot of the (row-equilibrated) Newton Jacobian.
+        real(wp) :: pivot_ratio = 0
+        !> Multipliers lambda_k at the displacement nodes, m x (0:M).
+        real(wp), allocatable :: lambda(:, :)
+    end type step_info_t
+
+    !> Receives every step of `integrate`. Extend it; keep your data as components.
+    type, abstract :: step_observer
+    contains
+        !> Called after step k (t = k h) with the new state; set `halt` to stop the run.
+        procedure(observe_interface), deferred :: observe
+    end type step_observer
+
+    abstract interface
+        subroutine observe_interface(self, step, t, q, p, info, halt)
+            import :: step_observer, wp, step_info_t
+            class(step_observer), intent(inout) :: self !! the observer
+            integer, intent(in) :: step          !! step number k >= 1
+            real(wp), intent(in) :: t            !! time k h
+            real(wp), intent(in) :: q(:)         !! coordinates after the step
+            real(wp), intent(in) :: p(:)         !! momenta after the step
+            type(step_info_t), intent(in) :: info !! diagnostics of the step
+            logical, intent(inout) :: halt       !! set .true. to stop after this step
+        end subroutine observe_interface
+    end interface
+
+    !> The symplectic integrator of a constrained Hamiltonian system for one (M, N, G).
+    type :: constrained_integrator
+        !> Newton tolerances and limits (defaults from epsilon).
+        type(newton_settings_t) :: newton
+        !> Start Newton from the previous step's polynomials when the state continues it.
+        logical :: extrapolate = .true.
+        !> Largest scaled residual of an accepted start state (see manifold_residuals).
+        real(wp) :: manifold_tolerance = manifold_tolerance_default
+        type(discrete_scheme), private :: scheme
+        logical, private :: ready = .false.
+        logical, private :: have_last = .false.
+        real(wp), allocatable, private :: last_x(:), last_qa(:), last_pa(:)
+        real(wp), allocatable, private :: last_qb(:), last_pb(:)
+        real(wp), private :: last_h = 0
+        type(step_info_t), private :: last_info
+    contains
+        !> Set up for a system and (M, N, G).
+        procedure :: init => integrator_init
+        !> One step of size h, in place.
+        procedure :: step => integrator_step
+        !> Many steps of size h, in place, with an optional observer.
+        procedure :: integrate => integrator_integrate
+        !> q~, p~, lambda~ of the last step at tau in [0, 1].
+        procedure :: dense_output => integrator_dense_output
+        !> Diagnostics of the last successful step.
+        procedure :: last_step => integrator_last_step
+        !> (M, N, G) of the scheme.
+        procedure :: orders => integrator_orders
+    end type constrained_integrator
+
+contains
+
+    !> Set up the integrator for `sys` (its sizes n, m) and the scheme (M, N, G).
+    !! Codes: HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION.
+    subroutine integrator_init(self, sys, order_m, order_n, gauss_points, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys !! the system (only n, m are read)
+        integer, intent(in) :: order_m      !! M >= 1, degree of the displacement polynomial
+        integer, intent(in) :: order_n      !! N >= 0, degree of the momentum polynomial
+        integer, intent(in) :: gauss_points !! G >= 1, Gauss points (G = max(M, N) + 1 typical)
+        type(holosym_status_t), intent(out), optional :: status !! outcome
+        type(discrete_scheme) :: scheme
+        type(holosym_status_t) :: local
+
+        call scheme%init(order_m, order_n, gauss_points, sys%n, sys%m, local)
+        if (.not. local%ok()) then
+            call set_status(status, local%code, local%message)
+            return
+        end if
+        self%scheme = scheme
+        self%ready = .true.
+        self%have_last = .false.
+        if (allocated(self%last_info%lambda)) deallocate (self%last_info%lambda)
+        allocate (self%last_info%lambda(sys%m, 0:order_m))
+        self%last_info%lambda = 0
+        call set_status(status, HOLOSYM_SUCCESS, "")
+    end subroutine integrator_init
+
+    !> (M, N, G) of the initialised scheme (zeros before `init`).
+    pure subroutine integrator_orders(self, order_m, order_n, gauss_points)
+        class(constrained_integrator), intent(in) :: self
+        integer, intent(out) :: order_m      !! M
+        integer, intent(out) :: order_n      !! N
+        integer, intent(out) :: gauss_points !! G
+        order_m = self%scheme%order_m
+        order_n = self%scheme%order_n
+        gauss_points = self%scheme%gauss_points
+    end subroutine integrator_orders
+
+    !> Check everything a step needs before touching the state.
+    subroutine validate(self, sys, q, p, h, status)
+        class(constrained_integrator), intent(in) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: position, velocity, scaled_position, scaled_velocity
+
+        if (.not. self%ready) then
+            call set_status(status, HOLOSYM_NOT_INITIALIZED, "call init before step or integrate")
+        else if (sys%n /= self%scheme%n .or. sys%m /= self%scheme%m) then
+            call set_status(status, HOLOSYM_INVALID_DIMENSION, "system has n = " // int_str(sys%n) &
+                // ", m = " // int_str(sys%m) // " but the integrator was set up for n = " // &
+                int_str(self%scheme%n) // ", m = " // int_str(self%scheme%m))
+        else if (size(q) /= sys%n .or. size(p) /= sys%n) then
+            call set_status(status, HOLOSYM_SIZE_MISMATCH, "q and p must have size n = " // &
+                int_str(sys%n) // "; got " // int_str(size(q)) // " and " // int_str(size(p)))
+        else if (.not. (is_finite(h) .and. h > 0)) then
+            call set_status(status, HOLOSYM_INVALID_STEP_SIZE, "step size must be positive and " &
+                // "finite; got h = " // real_str(h))
+        else if (.not. (all(is_finite(q)) .and. all(is_finite(p)))) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "q or p contains NaN or Inf")
+        else
+            call manifold_residuals(sys, q, p, position, velocity, scaled_position, scaled_velocity)
+            if (.not. (is_finite(scaled_position) .and. is_finite(scaled_velocity))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint, constraint_jacobian " &
+                    // "or dh_dp returned NaN or Inf at the start state")
+            else if (scaled_position > self%manifold_tolerance) then
+                call set_status(status, HOLOSYM_OFF_MANIFOLD, "start state violates the " // &
+                    "constraints: max|phi| = " // real_str(position) // " (scaled " // &
+                    real_str(scaled_position) // " > tolerance " // &
+                    real_str(self%manifold_tolerance) // "); project it first")
+            else if (scaled_velocity > self%manifold_tolerance) then
+                call set_status(status, HOLOSYM_OFF_MANIFOLD, "start state violates the hidden " // &
+                    "constraint: max|Phi H_p| = " // real_str(velocity) // " (scaled " // &
+                    real_str(scaled_velocity) // " > tolerance " // &
+                    real_str(self%manifold_tolerance) // "); project it first")
+            else
+                call set_status(status, HOLOSYM_SUCCESS, "")
+            end if
+        end if
+    end subroutine validate
+
+    !> Solve one step from (q, p) without changing them; return the increments.
+    subroutine solve_step(self, sys, q, p, h, dq, dp, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        real(wp), intent(out) :: dq(:), dp(:)
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: x(self%scheme%nx), scale, max_phi, position
+        type(newton_report_t) :: report
+        logical :: extrapolated
+        integer :: order_m, order_n, gauss_points
+
+        call self%scheme%set_step(sys, q, p, h)
+        extrapolated = .false.
+        if (self%extrapolate .and. self%have_last) then
+            extrapolated = all(q == self%last_qb) .and. all(p == self%last_pb)
+        end if
+        if (extrapolated) then
+            call self%scheme%extrapolated_guess(self%last_x, self%last_qa, self%last_pa, &
+                                                self%last_h, q, p, h, x)
+        else
+            call self%scheme%constant_guess(x)
+        end if
+        ! Increments are compared with the size of the state, not with themselves.
+        scale = max(maxval(abs(q)), maxval(abs(p)))
+        if (scale <= 0) scale = 1
+        call newton_solve(self%scheme, x, self%newton, scale, report, status)
+        if (.not. status%ok() .and. extrapolated .and. status%code /= HOLOSYM_NONFINITE_VALUE) then
+            ! A poor extrapolation (e.g. after a change of h) should not fail the step.
+            call self%scheme%constant_guess(x)
+            call newton_solve(self%scheme, x, self%newton, scale, report, status)
+        end if
+        if (.not. status%ok()) then
+            call self%orders(order_m, order_n, gauss_points)
+            status%message = "step with (M, N, G) = (" // int_str(order_m) // ", " // &
+                int_str(order_n) // ", " // int_str(gauss_points) // "), h = " // real_str(h) // &
+                ": " // status%message
+            if (status%code == HOLOSYM_SINGULAR_MATRIX) status%message = status%message // &
+                "; G or N may be too small for M (the paper needs G > max(M, N))"
+            return
+        end if
+        call self%scheme%increments(x, dq, dp, status)
+        if (.not. status%ok()) return
+        if (.not. (all(is_finite(dq)) .and. all(is_finite(dp)))) then
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, "step produced a non-finite state")
+            return
+        end if
+        call self%scheme%node_values(x, self%last_info%lambda, max_phi)
+        self%last_info%newton_iterations = report%iterations
+        self%last_info%constraint_residual = max_phi
+        self%last_info%pivot_ratio = report%pivot_ratio
+        self%last_x = x
+        self%last_qa = q
+        self%last_pa = p
+        self%last_h = h
+        self%last_qb = q + dq
+        self%last_pb = p + dp
+        call manifold_residuals(sys, self%last_qb, self%last_pb, position, &
+                                self%last_info%velocity_residual)
+        self%have_last = .true.
+    end subroutine solve_step
+
+    !> Advance (q, p) by one step of size h. On failure q and p are unchanged.
+    !! Codes: HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH,
+    !! HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_OFF_MANIFOLD,
+    !! HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED,
+    !! HOLOSYM_NONFINITE_VALUE.
+    subroutine integrator_step(self, sys, q, p, h, info, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(inout) :: q(:) !! coordinates (n): q_a in, q_b out
+        real(wp), intent(inout) :: p(:) !! momenta (n): p_a in, p_b out
+        real(wp), intent(in) :: h       !! step size > 0
+        type(step_info_t), intent(out), optional :: info !! diagnostics of the step
+        type(holosym_status_t), intent(out), optional :: status !! outcome
+        type(holosym_status_t) :: local
+        real(wp), allocatable :: dq(:), dp(:)
+
+        call validate(self, sys, q, p, h, local)
+        if (local%ok()) then
+            allocate (dq(size(q)), dp(size(p)))
+            call solve_step(self, sys, q, p, h, dq, dp, local)
+        end if
+        if (.not. local%ok()) then
+            call set_status(status, local%code, local%message)
+            return
+        end if
+        q = self%last_qb
+        p = self%last_pb
+        if (present(info)) info = self%last_info
+        call set_status(status, HOLOSYM_SUCCESS, "")
+    end subroutine integrator_step
+
+    !> Advance (q, p) by `steps` steps of size h, calling `observer` after each.
+    !! Increments are accumulated with compensated summation. On failure (or when the
+    !! observer halts, code HOLOSYM_USER_ABORT) q and p hold the last good step's state and
+    !! `steps_done` says how many steps completed. Codes: those of `step`, and
+    !! HOLOSYM_INVALID_STEP_COUNT for steps < 0, HOLOSYM_USER_ABORT.
+    subroutine integrator_integrate(self, sys, q, p, h, steps, observer, steps_done, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(inout) :: q(:) !! coordinates (n): start in, end out
+        real(wp), intent(inout) :: p(:) !! momenta (n): start in, end out
+        real(wp), intent(in) :: h       !! step size > 0
+        integer, intent(in) :: steps    !! number of steps >= 0
+        class(step_observer), intent(inout), optional :: observer !! receives every step
+        integer, intent(out), optional :: steps_done !! steps completed
+        type(holosym_status_t), intent(out), optional :: status !! outcome
+        type(holosym_status_t) :: local
+        real(wp), allocatable :: dq(:), dp(:), q_error(:), p_error(:), summand(:), total(:)
+        integer :: k
+        logical :: halt
+
+        if (present(steps_done)) steps_done = 0
+        if (steps < 0) then
+            call set_status(status, HOLOSYM_INVALID_STEP_COUNT, "step count must be >= 0; got " &
+                // int_str(steps))
+            return
+        end if
+        call validate(self, sys, q, p, h, local)
+        if (.not. local%ok()) then
+            call set_status(status, local%code, local%message)
+            return
+        end if
+        allocate (dq(size(q)), dp(size(p)), q_error(size(q)), p_error(size(p)))
+        q_error = 0
+        p_error = 0
+        halt = .false.
+        do k = 1, steps
+            call solve_step(self, sys, q, p, h, dq, dp, local)
+            if (.not. local%ok()) then
+                call set_status(status, local%code, "after " // int_str(k - 1) // " steps: " // &
+                    local%message)
+                return
+            end if
+            ! Kahan summation: carry the low-order part of each update into the next.
+            summand = dq + q_error
+            total = q + summand
+            q_error = (q - total) + summand
+            q = total
+            summand = dp + p_error
+            total = p + summand
+            p_error = (p - total) + summand
+            p = total
+            ! The next step continues from exactly this state.
+            self%last_qb = q
+            self%last_pb = p
+            if (present(steps_done)) steps_done = k
+            if (present(observer)) then
+                call observer%observe(k, k * h, q, p, self%last_info, halt)
+                if (halt .and. k < steps) then
+                    call set_status(status, HOLOSYM_USER_ABORT, "observer stopped the run after " &
+                        // int_str(k) // " of " // int_str(steps) // " steps")
+                    return
+                end if
+            end if
+        end do
+        call set_status(status, HOLOSYM_SUCCESS, "")
+    end subroutine integrator_integrate
+
+    !> Dense output of the last successful step: q~(tau), p~(tau), lambda~(tau), tau in [0, 1].
+    !! Codes: HOLOSYM_NOT_INITIALIZED (no step yet), HOLOSYM_INVALID_ARGUMENT (tau outside
+    !! [0, 1]), HOLOSYM_SIZE_MISMATCH.
+    subroutine integrator_dense_output(self, tau, q, p, lambda, status)
+        class(constrained_integrator), intent(in) :: self
+        real(wp), intent(in) :: tau          !! normalised time within the last step
+        real(wp), intent(out) :: q(:)        !! q~(tau), size n
+        real(wp), intent(out) :: p(:)        !! p~(tau), size n
+        real(wp), intent(out) :: lambda(:)   !! lambda~(tau), size m
+        type(holosym_status_t), intent(out), optional :: status !! outcome
+        if (.not. self%have_last) then
+            call set_status(status, HOLOSYM_NOT_INITIALIZED, "dense output needs a completed step")
+        else if (.not. (tau >= 0 .and. tau <= 1)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "tau must be in [0, 1]; got " // &
+                real_str(tau))
+        else if (size(q) /= self%scheme%n .or. size(p) /= self%scheme%n .or. &
+                 size(lambda) /= self%scheme%m) then
+            call set_status(status, HOLOSYM_SIZE_MISMATCH, "dense output needs q, p of size " // &
+                int_str(self%scheme%n) // " and lambda of size " // int_str(self%scheme%m))
+        else
+            call self%scheme%dense(self%last_x, self%last_qa, self%last_pa, self%last_h, tau, &
+                                   q, p, lambda)
+            call set_status(status, HOLOSYM_SUCCESS, "")
+        end if
+    end subroutine integrator_dense_output
+
+    !> Diagnostics of the last successful step.
+    function integrator_last_step(self) result(info)
+        class(constrained_integrator), intent(in) :: self
+        type(step_info_t) :: info
+        info = self%last_info
+    end function integrator_last_step
+
+end module holosym_integrator

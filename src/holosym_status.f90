@@ -1,0 +1,129 @@
+!> Status codes and the status object returned by every fallible public procedure.
+!!
+!! Convention: 0 is success, a negative code is invalid input (or a user abort),
+!! a positive code is a numerical failure. Every public entry point takes an optional
+!! `type(holosym_status), intent(out) :: status`; when it is absent and the call fails,
+!! the program stops with the message (`error stop`).
+module holosym_status
+    implicit none
+    private
+
+    public :: holosym_status_t, set_status, status_code_name, int_str, real_str, is_finite
+
+    !> Success.
+    integer, parameter, public :: HOLOSYM_SUCCESS = 0
+    !> M < 1, N < 0 or G < 1, or an (M, N, G) known to give a singular Newton Jacobian.
+    integer, parameter, public :: HOLOSYM_INVALID_ORDER = -1
+    !> Problem dimensions invalid: n < 1, m < 0 or m >= n.
+    integer, parameter, public :: HOLOSYM_INVALID_DIMENSION = -2
+    !> An array argument does not have the size that n, m or the scheme require.
+    integer, parameter, public :: HOLOSYM_SIZE_MISMATCH = -3
+    !> Step size h <= 0 or not finite.
+    integer, parameter, public :: HOLOSYM_INVALID_STEP_SIZE = -4
+    !> Step count < 0.
+    integer, parameter, public :: HOLOSYM_INVALID_STEP_COUNT = -5
+    !> Initial state off the constraint manifold (|phi| or |Phi H_p| above tolerance).
+    integer, parameter, public :: HOLOSYM_OFF_MANIFOLD = -6
+    !> The user's observer asked to stop the run.
+    integer, parameter, public :: HOLOSYM_USER_ABORT = -7
+    !> The integrator was used before a successful `init`.
+    integer, parameter, public :: HOLOSYM_NOT_INITIALIZED = -8
+    !> Any other invalid argument (a non-finite input value, tau outside [0,1], ...).
+    integer, parameter, public :: HOLOSYM_INVALID_ARGUMENT = -9
+    !> The Newton Jacobian (or a matrix given to the LU) is singular to working precision.
+    integer, parameter, public :: HOLOSYM_SINGULAR_MATRIX = 1
+    !> Newton's method did not converge within its iteration limit.
+    integer, parameter, public :: HOLOSYM_NEWTON_NOT_CONVERGED = 2
+    !> Newton's method diverged (corrections kept growing); the step is likely too large.
+    integer, parameter, public :: HOLOSYM_NEWTON_DIVERGED = 3
+    !> A user procedure (H, its gradients, phi, Phi, ...) returned NaN or Inf.
+    integer, parameter, public :: HOLOSYM_NONFINITE_VALUE = 4
+    !> The constraint Jacobian Phi is rank deficient at the state.
+    integer, parameter, public :: HOLOSYM_RANK_DEFICIENT_CONSTRAINTS = 5
+
+    !> Outcome of a call: a code (see the HOLOSYM_* constants) and a message.
+    type :: holosym_status_t
+        !> 0 on success, < 0 invalid input, > 0 numerical failure.
+        integer :: code = HOLOSYM_SUCCESS
+        !> Human-readable description; empty on success.
+        character(len=:), allocatable :: message
+    contains
+        !> True when the call succeeded.
+        procedure :: ok => status_ok
+    end type holosym_status_t
+
+contains
+
+    !> True when `self%code` is `HOLOSYM_SUCCESS`.
+    elemental logical function status_ok(self)
+        class(holosym_status_t), intent(in) :: self !! status to test
+        status_ok = self%code == HOLOSYM_SUCCESS
+    end function status_ok
+
+    !> Record an outcome: fill `status` when present; otherwise stop on failure.
+    pure subroutine set_status(status, code, message)
+        type(holosym_status_t), intent(inout), optional :: status !! caller's status, if any
+        integer, intent(in) :: code             !! HOLOSYM_* code
+        character(len=*), intent(in) :: message !! description, naming the offending value
+        character(len=:), allocatable :: text
+        if (present(status)) then
+            status%code = code
+            status%message = message
+        else if (code /= HOLOSYM_SUCCESS) then
+            text = "holosym: " // status_code_name(code) // ": " // message
+            error stop text
+        end if
+    end subroutine set_status
+
+    !> Short symbolic name of a status code, e.g. "singular matrix".
+    pure function status_code_name(code) result(name)
+        integer, intent(in) :: code !! HOLOSYM_* code
+        character(len=:), allocatable :: name
+        select case (code)
+        case (HOLOSYM_SUCCESS);                    name = "success"
+        case (HOLOSYM_INVALID_ORDER);              name = "invalid order parameters"
+        case (HOLOSYM_INVALID_DIMENSION);          name = "invalid problem dimensions"
+        case (HOLOSYM_SIZE_MISMATCH);              name = "array size mismatch"
+        case (HOLOSYM_INVALID_STEP_SIZE);          name = "invalid step size"
+        case (HOLOSYM_INVALID_STEP_COUNT);         name = "invalid step count"
+        case (HOLOSYM_OFF_MANIFOLD);               name = "state off the constraint manifold"
+        case (HOLOSYM_USER_ABORT);                 name = "stopped by the observer"
+        case (HOLOSYM_NOT_INITIALIZED);            name = "integrator not initialized"
+        case (HOLOSYM_INVALID_ARGUMENT);           name = "invalid argument"
+        case (HOLOSYM_SINGULAR_MATRIX);            name = "singular matrix"
+        case (HOLOSYM_NEWTON_NOT_CONVERGED);       name = "Newton not converged"
+        case (HOLOSYM_NEWTON_DIVERGED);            name = "Newton diverged"
+        case (HOLOSYM_NONFINITE_VALUE);            name = "non-finite value"
+        case (HOLOSYM_RANK_DEFICIENT_CONSTRAINTS); name = "rank-deficient constraint Jacobian"
+        case default;                              name = "unknown status"
+        end select
+    end function status_code_name
+
+    !> True when `value` is neither NaN nor infinite.
+    elemental logical function is_finite(value)
+        use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+        use holosym_kinds, only: wp
+        real(wp), intent(in) :: value !! value to test
+        is_finite = ieee_is_finite(value)
+    end function is_finite
+
+    !> Decimal text of an integer, for messages.
+    pure function int_str(value) result(text)
+        integer, intent(in) :: value !! integer to format
+        character(len=:), allocatable :: text
+        character(len=24) :: buffer
+        write (buffer, '(i0)') value
+        text = trim(buffer)
+    end function int_str
+
+    !> Short scientific text of a real (any kind converted to wp), for messages.
+    pure function real_str(value) result(text)
+        use holosym_kinds, only: wp
+        real(wp), intent(in) :: value !! value to format
+        character(len=:), allocatable :: text
+        character(len=48) :: buffer
+        write (buffer, '(es12.5)') value
+        text = trim(adjustl(buffer))
+    end function real_str
+
+end module holosym_status
