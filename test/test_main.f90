@@ -1,4 +1,32 @@
+!> Test runner: `fpm test [-- FILTER]` runs every test whose "suite/name" contains FILTER.
+!! The last line is "N passed, M failed"; the exit code is non-zero on any failure.
 program holosym_tests
+    use holosym_testing, only: run_suite
+    use test_quadrature, only: quadrature_tests
+    use test_lagrange, only: lagrange_tests
+    use test_linalg, only: linalg_tests
+    use test_scheme, only: scheme_tests
+    use test_errors, only: errors_tests
+    use test_integrator, only: integrator_tests
+    use test_cli, only: cli_tests
     implicit none
-    print '(a)', "0 passed, 0 failed"
+    character(len=256) :: filter
+    integer :: passed, failed
+    character(len=32) :: summary
+
+    filter = ""
+    if (command_argument_count() >= 1) call get_command_argument(1, filter)
+    passed = 0
+    failed = 0
+    ! Suites are registered here, one line each.
+    call run_suite("quadrature", quadrature_tests(), filter, passed, failed)
+    call run_suite("lagrange", lagrange_tests(), filter, passed, failed)
+    call run_suite("linalg", linalg_tests(), filter, passed, failed)
+    call run_suite("scheme", scheme_tests(), filter, passed, failed)
+    call run_suite("errors", errors_tests(), filter, passed, failed)
+    call run_suite("integrator", integrator_tests(), filter, passed, failed)
+    call run_suite("cli", cli_tests(), filter, passed, failed)
+    write (summary, '(i0, " passed, ", i0, " failed")') passed, failed
+    print '(a)', trim(summary)
+    if (failed > 0) error stop 1
 end program holosym_tests

@@ -1,0 +1,108 @@
+!> A small test harness in the spirit of test-drive: named test cases collected into
+!! suites, assertions that record the first failure, and a runner that prints one line
+!! per test and a final `N passed, M failed`.
+module holosym_testing
+    use holosym_kinds, only: wp
+    use holosym_status, only: real_str, int_str
+    implicit none
+    private
+
+    public :: test_error_t, test_case_t, test_interface, new_test, run_suite
+    public :: check, check_close, check_status_code
+
+    !> A failed assertion: its message.
+    type :: test_error_t
+        character(len=:), allocatable :: message
+    end type test_error_t
+
+    abstract interface
+        !> A test: leaves `error` unallocated when it passes.
+        subroutine test_interface(error)
+            import :: test_error_t
+            type(test_error_t), allocatable, intent(out) :: error
+        end subroutine test_interface
+    end interface
+
+    !> A named test case.
+    type :: test_case_t
+        character(len=:), allocatable :: name
+        procedure(test_interface), pointer, nopass :: run => null()
+    end type test_case_t
+
+    interface check
+        module procedure check_logical
+    end interface check
+
+contains
+
+    !> Make a named test case.
+    function new_test(name, run) result(test)
+        character(len=*), intent(in) :: name       !! test name
+        procedure(test_interface) :: run           !! the test
+        type(test_case_t) :: test
+        test%name = name
+        test%run => run
+    end function new_test
+
+    !> Fail with `message` unless `condition` holds (first failure wins).
+    subroutine check_logical(error, condition, message)
+        type(test_error_t), allocatable, intent(inout) :: error !! failure record
+        logical, intent(in) :: condition          !! what must hold
+        character(len=*), intent(in) :: message   !! what it means
+        if (allocated(error)) return
+        if (.not. condition) then
+            allocate (error)
+            error%message = message
+        end if
+    end subroutine check_logical
+
+    !> Fail unless |actual - expected| <= abs_tol + rel_tol |expected|.
+    subroutine check_close(error, actual, expected, rel_tol, abs_tol, message)
+        type(test_error_t), allocatable, intent(inout) :: error !! failure record
+        real(wp), intent(in) :: actual    !! computed value
+        real(wp), intent(in) :: expected  !! reference value
+        real(wp), intent(in) :: rel_tol   !! relative tolerance
+        real(wp), intent(in) :: abs_tol   !! absolute tolerance
+        character(len=*), intent(in) :: message !! what is compared
+        call check_logical(error, abs(actual - expected) <= abs_tol + rel_tol * abs(expected), &
+            message // ": got " // real_str(actual) // ", expected " // real_str(expected))
+    end subroutine check_close
+
+    !> Fail unless a status code equals the expected one.
+    subroutine check_status_code(error, actual, expected, message)
+        type(test_error_t), allocatable, intent(inout) :: error !! failure record
+        integer, intent(in) :: actual     !! code returned
+        integer, intent(in) :: expected   !! code required
+        character(len=*), intent(in) :: message !! the call
+        call check_logical(error, actual == expected, message // ": status " // int_str(actual) &
+            // ", expected " // int_str(expected))
+    end subroutine check_status_code
+
+    !> Run the tests of a suite whose "suite/name" contains `filter` (all when empty);
+    !! print a line per test and add to the counters.
+    subroutine run_suite(suite, tests, filter, passed, failed)
+        use, intrinsic :: iso_fortran_env, only: output_unit
+        character(len=*), intent(in) :: suite       !! suite name
+        type(test_case_t), intent(in) :: tests(:)   !! its tests
+        character(len=*), intent(in) :: filter      !! substring selecting tests
+        integer, intent(inout) :: passed            !! count of passing tests
+        integer, intent(inout) :: failed            !! count of failing tests
+        type(test_error_t), allocatable :: error
+        character(len=:), allocatable :: full_name
+        integer :: i
+        do i = 1, size(tests)
+            full_name = suite // "/" // tests(i)%name
+            if (len_trim(filter) > 0 .and. index(full_name, trim(filter)) == 0) cycle
+            call tests(i)%run(error)
+            if (allocated(error)) then
+                failed = failed + 1
+                write (output_unit, '(a)') "  FAIL " // full_name // ": " // error%message
+            else
+                passed = passed + 1
+                write (output_unit, '(a)') "  pass " // full_name
+            end if
+            flush (output_unit)
+        end do
+    end subroutine run_suite
+
+end module holosym_testing
