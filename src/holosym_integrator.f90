@@ -10,7 +10,8 @@ module holosym_integrator
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
-        HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX
+        HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
+    use holosym_linalg, only: lu_factor
     use holosym_problem, only: constrained_hamiltonian
     use holosym_newton, only: newton_settings_t, newton_report_t, newton_solve
     use holosym_scheme, only: discrete_scheme
@@ -37,7 +38,7 @@ module holosym_integrator
     !> Receives every step of `integrate`. Extend it; keep your data as components.
     type, abstract :: step_observer
     contains
-        !> Called after step k (t = k h) with the new state; set `halt` to stop the run.
+        !> Called after step k (t = start_time + k h) with the new state; set `halt` to stop.
         procedure(observe_interface), deferred :: observe
     end type step_observer
 
@@ -45,8 +46,8 @@ module holosym_integrator
         subroutine observe_interface(self, step, t, q, p, info, halt)
             import :: step_observer, wp, step_info_t
             class(step_observer), intent(inout) :: self !! the observer
-            integer, intent(in) :: step          !! step number k >= 1
-            real(wp), intent(in) :: t            !! time k h
+            integer, intent(in) :: step          !! step number k >= 1 within this run
+            real(wp), intent(in) :: t            !! time start_time + k h
             real(wp), intent(in) :: q(:)         !! coordinates after the step
             real(wp), intent(in) :: p(:)         !! momenta after the step
             type(step_info_t), intent(in) :: info !! diagnostics of the step
@@ -130,6 +131,7 @@ contains
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
         real(wp) :: position, velocity, scaled_position, scaled_velocity
+        character(len=:), allocatable :: rank_message
 
         if (.not. self%ready) then
             call set_status(status, HOLOSYM_NOT_INITIALIZED, "call init before step or integrate")
@@ -145,6 +147,8 @@ contains
                 // "finite; got h = " // real_str(h))
         else if (.not. (all(is_finite(q)) .and. all(is_finite(p)))) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "q or p contains NaN or Inf")
+        else if (.not. full_rank_constraints(sys, q, rank_message)) then
+            call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, rank_message)
         else
             call manifold_residuals(sys, q, p, position, velocity, scaled_position, scaled_velocity)
             if (.not. (is_finite(scaled_position) .and. is_finite(scaled_velocity))) then
@@ -165,6 +169,29 @@ contains
             end if
         end if
     end subroutine validate
+
+    !> True when Phi(q) has full row rank m: the LU of Phi Phi^T (m x m) finds no pivot
+    !! below m epsilon relative, i.e. no singular value of Phi below ~sqrt(m epsilon) relative.
+    !! Otherwise `message` says which constraint is (nearly) dependent on the others.
+    function full_rank_constraints(sys, q, message) result(full_rank)
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:)
+        character(len=:), allocatable, intent(out) :: message
+        logical :: full_rank
+        real(wp) :: jac(sys%m, sys%n), gram(sys%m, sys%m)
+        integer :: pivots(sys%m), info
+        message = ""
+        full_rank = .true.
+        if (sys%m == 0) return
+        call sys%constraint_jacobian(q, jac)
+        if (.not. all(is_finite(jac))) return  ! reported as non-finite by the caller's checks
+        gram = matmul(jac, transpose(jac))
+        call lu_factor(gram, pivots, info)
+        full_rank = info == 0
+        if (.not. full_rank) message = "the constraint Jacobian Phi is rank deficient at q: " &
+            // "constraint " // int_str(info) // " of " // int_str(sys%m) // " is (nearly) " // &
+            "a combination of the others (pivot of Phi Phi^T below m epsilon)"
+    end function full_rank_constraints
 
     !> Solve one step from (q, p) without changing them; return the increments.
     subroutine solve_step(self, sys, q, p, h, dq, dp, status)
@@ -231,8 +258,8 @@ contains
     !> Advance (q, p) by one step of size h. On failure q and p are unchanged.
     !! Codes: HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH,
     !! HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_OFF_MANIFOLD,
-    !! HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED,
-    !! HOLOSYM_NONFINITE_VALUE.
+    !! HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_SINGULAR_MATRIX,
+    !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE.
     subroutine integrator_step(self, sys, q, p, h, info, status)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in), target :: sys !! the system
@@ -264,7 +291,8 @@ contains
     !! observer halts, code HOLOSYM_USER_ABORT) q and p hold the last good step's state and
     !! `steps_done` says how many steps completed. Codes: those of `step`, and
     !! HOLOSYM_INVALID_STEP_COUNT for steps < 0, HOLOSYM_USER_ABORT.
-    subroutine integrator_integrate(self, sys, q, p, h, steps, observer, steps_done, status)
+    subroutine integrator_integrate(self, sys, q, p, h, steps, observer, steps_done, status, &
+                                    start_time)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in), target :: sys !! the system
         real(wp), intent(inout) :: q(:) !! coordinates (n): start in, end out
@@ -274,8 +302,10 @@ contains
         class(step_observer), intent(inout), optional :: observer !! receives every step
         integer, intent(out), optional :: steps_done !! steps completed
         type(holosym_status_t), intent(out), optional :: status !! outcome
+        real(wp), intent(in), optional :: start_time !! t of the start state (default 0)
         type(holosym_status_t) :: local
         real(wp), allocatable :: dq(:), dp(:), q_error(:), p_error(:), summand(:), total(:)
+        real(wp) :: t0
         integer :: k
         logical :: halt
 
@@ -290,6 +320,8 @@ contains
             call set_status(status, local%code, local%message)
             return
         end if
+        t0 = 0
+        if (present(start_time)) t0 = start_time
         allocate (dq(size(q)), dp(size(p)), q_error(size(q)), p_error(size(p)))
         q_error = 0
         p_error = 0
@@ -315,7 +347,7 @@ contains
             self%last_pb = p
             if (present(steps_done)) steps_done = k
             if (present(observer)) then
-                call observer%observe(k, k * h, q, p, self%last_info, halt)
+                call observer%observe(k, t0 + k * h, q, p, self%last_info, halt)
                 if (halt .and. k < steps) then
                     call set_status(status, HOLOSYM_USER_ABORT, "observer stopped the run after " &
                         // int_str(k) // " of " // int_str(steps) // " steps")

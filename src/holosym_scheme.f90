@@ -106,6 +106,8 @@ contains
                 // int_str(n) // ", m = " // int_str(m))
             return
         end if
+        ! A scheme may be set up again for other orders or sizes: start from scratch.
+        call release(self)
         self%order_m = order_m
         self%order_n = order_n
         self%gauss_points = gauss_points
@@ -138,6 +140,16 @@ contains
         self%cache_valid = .false.
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine scheme_init
+
+    !> Deallocate every array component (before a new `init`).
+    subroutine release(self)
+        class(discrete_scheme), intent(inout) :: self
+        if (allocated(self%disp_nodes)) deallocate (self%disp_nodes, self%lobatto_weights, &
+            self%mom_nodes, self%gauss_nodes, self%gauss_weights, self%b, self%a, self%c, &
+            self%qa, self%pa, self%cached_x, self%q_nodes, self%d_values, self%q_gauss, &
+            self%v_gauss, self%p_gauss, self%hq_gauss, self%hp_gauss, self%phi_jac)
+        self%cache_valid = .false.
+    end subroutine release
 
     !> Bind the system, the start state (q_a, p_a) and h for the next solve. The system
     !! must stay alive and unchanged until the solve and its follow-up calls are done.

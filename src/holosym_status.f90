@@ -122,7 +122,8 @@ contains
         real(wp), intent(in) :: value !! value to format
         character(len=:), allocatable :: text
         character(len=48) :: buffer
-        write (buffer, '(es12.5)') value
+        ! A four-digit exponent field: real128 exponents reach 4932.
+        write (buffer, '(es16.5e4)') value
         text = trim(adjustl(buffer))
     end function real_str
 

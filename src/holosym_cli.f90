@@ -1,0 +1,86 @@
+!> The dispatcher of the `holosym` command-line tool: `holosym COMMAND [options]`.
+!!
+!! Each command lives in its own module `holosym_cli_NAME` with a procedure
+!! `NAME_command(args, out_unit, err_unit, exit_code)` and a `NAME_help()` text. To add a
+!! command (e.g. `tables`, `extremes`, `bench`), write that module, add one `case` to
+!! `run_command` and one line to `cli_help`. Nothing here stops the program: the main
+!! program turns `exit_code` into the process exit status.
+module holosym_cli
+    use holosym_cli_common, only: cli_argument_t, join_lines, EXIT_OK, EXIT_USAGE
+    use holosym_cli_simulate, only: simulate_command
+    use holosym_cli_tables, only: tables_command
+    implicit none
+    private
+
+    public :: cli_run, cli_help
+
+contains
+
+    !> The text of `holosym --help`.
+    pure function cli_help() result(text)
+        character(len=:), allocatable :: text !! the help, lines joined by newlines
+        text = join_lines([character(len=96) :: &
+            "Usage: holosym COMMAND [options]", &
+            "", &
+            "Symplectic integration of Hamiltonian systems with holonomic constraints", &
+            "in quadruple precision.", &
+            "", &
+            "Commands:", &
+            "  simulate   integrate a system and write its trajectory as CSV", &
+            "  tables     measure the paper's Tables 1-2 and the minimum Gauss points", &
+            "", &
+            "Run 'holosym COMMAND --help' (or 'holosym help COMMAND') for a command's options.", &
+            "Exit status: 0 success, 1 the command failed, 2 bad usage."])
+    end function cli_help
+
+    !> Run the command line `args` (without the program name). Output goes to `out_unit`,
+    !! messages to `err_unit`; `exit_code` is 0 on success, 1 when a command failed and
+    !! 2 on a usage error (no or unknown command, bad options).
+    subroutine cli_run(args, out_unit, err_unit, exit_code)
+        type(cli_argument_t), intent(in) :: args(:) !! command-line arguments
+        integer, intent(in) :: out_unit   !! unit for results and help
+        integer, intent(in) :: err_unit   !! unit for progress and errors
+        integer, intent(out) :: exit_code !! process exit code
+
+        if (size(args) == 0) then
+            write (err_unit, '(a)') cli_help()
+            exit_code = EXIT_USAGE
+            return
+        end if
+        select case (args(1)%text)
+        case ("-h", "--help")
+            write (out_unit, '(a)') cli_help()
+            exit_code = EXIT_OK
+        case ("help")
+            if (size(args) == 1) then
+                write (out_unit, '(a)') cli_help()
+                exit_code = EXIT_OK
+            else
+                call run_command(args(2)%text, [cli_argument_t("--help")], out_unit, &
+                                 err_unit, exit_code)
+            end if
+        case default
+            call run_command(args(1)%text, args(2:), out_unit, err_unit, exit_code)
+        end select
+    end subroutine cli_run
+
+    !> Dispatch to the command called `name` with its arguments.
+    subroutine run_command(name, args, out_unit, err_unit, exit_code)
+        character(len=*), intent(in) :: name        !! the command
+        type(cli_argument_t), intent(in) :: args(:) !! its arguments
+        integer, intent(in) :: out_unit   !! unit for results and help
+        integer, intent(in) :: err_unit   !! unit for progress and errors
+        integer, intent(out) :: exit_code !! process exit code
+        select case (name)
+        case ("simulate")
+            call simulate_command(args, out_unit, err_unit, exit_code)
+        case ("tables")
+            call tables_command(args, out_unit, err_unit, exit_code)
+        case default
+            write (err_unit, '(a)') "holosym: unknown command '" // name // &
+                "'; run 'holosym --help' for the list of commands"
+            exit_code = EXIT_USAGE
+        end select
+    end subroutine run_command
+
+end module holosym_cli

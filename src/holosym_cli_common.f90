@@ -1,0 +1,281 @@
+!> Shared pieces of the `holosym` command-line tool: the argument list, option splitting,
+!! strict number parsing, CSV number formatting and the exit codes.
+!!
+!! Nothing here stops the program or prints: procedures return a `holosym_status_t`
+!! (code `HOLOSYM_INVALID_ARGUMENT` and a message naming the option and the value) so that
+!! every command can be tested in-process. Only the main program turns codes into exits.
+module holosym_cli_common
+    use holosym_kinds, only: wp
+    use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+    implicit none
+    private
+
+    public :: cli_argument_t, command_arguments, split_words
+    public :: split_option, option_value, parse_integer, parse_real
+    public :: fail, csv_real, csv_integer, join_lines
+
+    !> Exit code of a successful command.
+    integer, parameter, public :: EXIT_OK = 0
+    !> Exit code of a command that started but failed (integrator failure, I/O error).
+    integer, parameter, public :: EXIT_FAILURE = 1
+    !> Exit code of a usage error (unknown command or option, bad or missing value).
+    integer, parameter, public :: EXIT_USAGE = 2
+
+    !> Width of the CSV number field: sign, 36 significant digits, point, 'E', sign, 4 digits.
+    integer, parameter :: csv_width = 48
+    !> Format of a real CSV field: 36 significant digits round-trip a real128 exactly.
+    character(len=*), parameter :: csv_format = '(es44.35e4)'
+    !> Longest integer literal accepted (more digits always overflow the default integer).
+    integer, parameter :: max_integer_digits = 18
+
+    !> One command-line argument.
+    type :: cli_argument_t
+        !> The argument's text, without trailing blanks.
+        character(len=:), allocatable :: text
+    end type cli_argument_t
+
+contains
+
+    !> The program's command-line arguments 1..n, from `get_command_argument`.
+    function command_arguments() result(args)
+        type(cli_argument_t), allocatable :: args(:) !! the arguments, in order
+        integer :: i, length
+        allocate (args(command_argument_count()))
+        do i = 1, size(args)
+            call get_command_argument(i, length=length)
+            allocate (character(len=length) :: args(i)%text)
+            if (length > 0) call get_command_argument(i, args(i)%text)
+        end do
+    end function command_arguments
+
+    !> Split a line at blanks into arguments (no quoting), e.g. for tests:
+    !! `split_words("simulate --M 3")` gives ["simulate", "--M", "3"].
+    pure function split_words(line) result(args)
+        character(len=*), intent(in) :: line !! blank-separated words
+        type(cli_argument_t), allocatable :: args(:) !! the words, in order
+        integer :: first, last
+        allocate (args(0))
+        last = 0
+        do
+            first = verify(line(last + 1:), " ")
+            if (first == 0) exit
+            first = last + first
+            last = scan(line(first:), " ")
+            if (last == 0) then
+                last = len(line) + 1
+            else
+                last = first + last - 1
+            end if
+            args = [args, cli_argument_t(line(first:last - 1))]
+            if (last >= len(line)) exit
+        end do
+    end function split_words
+
+    !> Split an argument into an option name and an inline value: "--h=0.5" gives name
+    !! "--h", value "0.5"; "--h" gives name "--h" and no value.
+    pure subroutine split_option(arg, name, value, has_value)
+        character(len=*), intent(in) :: arg  !! the argument
+        character(len=:), allocatable, intent(out) :: name  !! the option name
+        character(len=:), allocatable, intent(out) :: value !! the inline value ("" if none)
+        logical, intent(out) :: has_value    !! true for the form --name=value
+        integer :: equals
+        equals = 0
+        if (len(arg) > 2) then
+            if (arg(1:2) == "--") equals = index(arg, "=")
+        end if
+        has_value = equals > 0
+        if (has_value) then
+            name = arg(:equals - 1)
+            value = arg(equals + 1:)
+        else
+            name = arg
+            value = ""
+        end if
+    end subroutine split_option
+
+    !> The value of option `name` at `args(position)`: the inline value if there is one,
+    !! else the next argument (then `position` advances past it). Fails when no value follows.
+    subroutine option_value(args, position, name, inline, has_inline, value, status)
+        type(cli_argument_t), intent(in) :: args(:) !! all arguments of the command
+        integer, intent(inout) :: position     !! index of the option; of its value on return
+        character(len=*), intent(in) :: name   !! the option, for messages
+        character(len=*), intent(in) :: inline !! inline value from `split_option`
+        logical, intent(in) :: has_inline      !! whether the inline value was given
+        character(len=:), allocatable, intent(out) :: value !! the value text
+        type(holosym_status_t), intent(out) :: status !! failure names the option
+        logical :: missing
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        if (has_inline) then
+            value = inline
+            missing = len(value) == 0
+        else
+            missing = position + 1 > size(args)
+            if (.not. missing) missing = is_option_like(args(position + 1)%text)
+            if (.not. missing) then
+                position = position + 1
+                value = args(position)%text
+            end if
+        end if
+        if (missing) then
+            value = ""
+            call fail(status, "option " // name // " needs a value")
+        end if
+    end subroutine option_value
+
+    !> True for "--anything" (not for "-1", which is a negative number).
+    pure logical function is_option_like(text)
+        character(len=*), intent(in) :: text !! an argument
+        is_option_like = .false.
+        if (len(text) >= 2) is_option_like = text(1:2) == "--"
+    end function is_option_like
+
+    !> Parse a decimal integer: optional sign and digits only. Fails with a message naming
+    !! `name` and the text.
+    subroutine parse_integer(name, text, value, status)
+        character(len=*), intent(in) :: name  !! the option, for messages
+        character(len=*), intent(in) :: text  !! the value text
+        integer, intent(out) :: value         !! the integer
+        type(holosym_status_t), intent(out) :: status !! failure names option and text
+        integer :: first, ios
+        value = 0
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        first = 1
+        if (len(text) >= 1) then
+            if (text(1:1) == "+" .or. text(1:1) == "-") first = 2
+        end if
+        if (len(text) < first .or. verify(text(first:), "0123456789") /= 0) then
+            call fail(status, "option " // name // " expects an integer; got '" // text // "'")
+            return
+        end if
+        ios = 1
+        if (len(text) - first + 1 <= max_integer_digits) read (text, *, iostat=ios) value
+        if (ios /= 0) then
+            value = 0
+            call fail(status, "option " // name // ": integer '" // text // "' is out of range")
+        end if
+    end subroutine parse_integer
+
+    !> Parse a real: a decimal number such as `0.0625`, `1e-3`, `-2.5D0`, or a quotient of two
+    !! such numbers such as `1/8`. NaN, Inf and anything else fail with a message naming `name`.
+    subroutine parse_real(name, text, value, status)
+        character(len=*), intent(in) :: name  !! the option, for messages
+        character(len=*), intent(in) :: text  !! the value text
+        real(wp), intent(out) :: value        !! the number
+        type(holosym_status_t), intent(out) :: status !! failure names option and text
+        real(wp) :: numerator, denominator
+        integer :: slash
+        logical :: ok
+        value = 0
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        slash = index(text, "/")
+        if (slash > 0) then
+            call read_decimal(text(:slash - 1), numerator, ok)
+            if (ok) call read_decimal(text(slash + 1:), denominator, ok)
+            if (ok) ok = abs(denominator) > 0
+            if (ok) value = numerator / denominator
+        else
+            call read_decimal(text, value, ok)
+        end if
+        if (.not. ok) then
+            value = 0
+            call fail(status, "option " // name // " expects a number (e.g. 0.0625, 1e-3 or " &
+                // "1/16); got '" // text // "'")
+        end if
+    end subroutine parse_real
+
+    !> Read a decimal real after checking its syntax: [sign] digits [. digits]
+    !! [(e|E|d|D) [sign] digits], at least one mantissa digit, nothing else.
+    subroutine read_decimal(text, value, ok)
+        character(len=*), intent(in) :: text !! candidate number
+        real(wp), intent(out) :: value       !! the number when ok
+        logical, intent(out) :: ok           !! whether text is a finite decimal number
+        integer :: i, mantissa_digits, exponent_digits, ios
+        value = 0
+        ok = .false.
+        i = 1
+        call skip_sign(text, i)
+        mantissa_digits = count_digits(text, i)
+        if (i <= len(text)) then
+            if (text(i:i) == ".") then
+                i = i + 1
+                mantissa_digits = mantissa_digits + count_digits(text, i)
+            end if
+        end if
+        if (mantissa_digits == 0) return
+        if (i <= len(text)) then
+            if (scan(text(i:i), "eEdD") == 0) return
+            i = i + 1
+            call skip_sign(text, i)
+            exponent_digits = count_digits(text, i)
+            if (exponent_digits == 0) return
+        end if
+        if (i <= len(text)) return
+        read (text, *, iostat=ios) value
+        ok = ios == 0
+        if (ok) ok = abs(value) <= huge(value)
+    end subroutine read_decimal
+
+    !> Advance `i` past one '+' or '-' at text(i).
+    pure subroutine skip_sign(text, i)
+        character(len=*), intent(in) :: text !! the text
+        integer, intent(inout) :: i          !! current position
+        if (i <= len(text)) then
+            if (text(i:i) == "+" .or. text(i:i) == "-") i = i + 1
+        end if
+    end subroutine skip_sign
+
+    !> Count the decimal digits starting at text(i) and advance `i` past them.
+    integer function count_digits(text, i) result(digits)
+        character(len=*), intent(in) :: text !! the text
+        integer, intent(inout) :: i          !! current position
+        digits = 0
+        do while (i <= len(text))
+            if (verify(text(i:i), "0123456789") /= 0) exit
+            digits = digits + 1
+            i = i + 1
+        end do
+    end function count_digits
+
+    !> Set a usage failure (code HOLOSYM_INVALID_ARGUMENT) with `message`.
+    pure subroutine fail(status, message)
+        type(holosym_status_t), intent(inout) :: status !! the status to set
+        character(len=*), intent(in) :: message         !! what was wrong, naming the value
+        status%code = HOLOSYM_INVALID_ARGUMENT
+        status%message = message
+    end subroutine fail
+
+    !> A real as a CSV field: scientific notation with 36 significant digits (exact for
+    !! real128), no blanks, e.g. "-3.33333333333333333333333333333333317E-0001".
+    function csv_real(value) result(field)
+        real(wp), intent(in) :: value !! the number
+        character(len=:), allocatable :: field !! its text
+        character(len=csv_width) :: buffer
+        write (buffer, csv_format) value
+        field = trim(adjustl(buffer))
+    end function csv_real
+
+    !> An integer as a CSV field, no blanks.
+    pure function csv_integer(value) result(field)
+        integer, intent(in) :: value !! the number
+        character(len=:), allocatable :: field !! its text
+        character(len=csv_width) :: buffer
+        write (buffer, '(i0)') value
+        field = trim(buffer)
+    end function csv_integer
+
+    !> Join lines with newlines, for help texts written with one `write`.
+    pure function join_lines(lines) result(text)
+        character(len=*), intent(in) :: lines(:) !! lines (trailing blanks are trimmed)
+        character(len=:), allocatable :: text    !! the joined text
+        integer :: i
+        text = ""
+        do i = 1, size(lines)
+            if (i > 1) text = text // new_line("a")
+            text = text // trim(lines(i))
+        end do
+    end function join_lines
+
+end module holosym_cli_common

@@ -1,0 +1,590 @@
+!> The `simulate` command of the `holosym` tool: integrate one of the paper's systems from
+!! its initial state and write the trajectory as CSV.
+!!
+!! Parsing (`parse_simulate_options`) and running (`run_simulate`) are separate procedures
+!! that return a status instead of stopping, so both can be tested in-process;
+!! `simulate_command` combines them and turns the outcome into an exit code.
+module holosym_cli_simulate
+    use, intrinsic :: iso_fortran_env, only: int64
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    use holosym_kinds, only: wp
+    use holosym_status, only: holosym_status_t, status_code_name, int_str, real_str, &
+        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_USER_ABORT
+    use holosym_problem, only: constrained_hamiltonian
+    use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
+    use holosym_manifold, only: manifold_residuals
+    use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
+    use holosym_cli_common, only: cli_argument_t, split_option, option_value, parse_integer, &
+        parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
+    implicit none
+    private
+
+    public :: simulate_config_t, simulate_summary_t
+    public :: parse_simulate_options, run_simulate, simulate_command, simulate_help
+    public :: csv_header, make_system, system_names
+
+    !> Names accepted by `--system`: the spherical pendulum (paper Example 1), the
+    !! spring-linkage mechanism (Example 2) and the planar pendulum.
+    character(len=*), parameter :: system_names(*) = [character(len=8) :: &
+        "pendulum", "linkage", "planar"]
+
+    !> Default degree M of the displacement polynomial.
+    integer, parameter :: default_order_m = 2
+    !> Default step size h = 1/16.
+    real(wp), parameter :: default_step_size = 0.0625_wp
+    !> Default final time T.
+    real(wp), parameter :: default_final_time = 10.0_wp
+    !> Default row stride.
+    integer, parameter :: default_every = 1
+    !> Relative tolerance for "T is a multiple of h": decimal input such as 0.1 is not exact
+    !! in binary, so T/h may miss an integer by a few units of round-off.
+    real(wp), parameter :: multiple_tolerance = 64 * epsilon(1.0_wp)
+    !> Seconds of wall time between progress lines on standard error.
+    real(wp), parameter :: progress_interval = 10.0_wp
+
+    !> Options of `holosym simulate`, after parsing and defaulting.
+    type :: simulate_config_t
+        !> System name, one of `system_names`.
+        character(len=:), allocatable :: system
+        !> M >= 1: degree of the displacement polynomial.
+        integer :: order_m = default_order_m
+        !> N >= 0: degree of the momentum polynomial (default M - 1).
+        integer :: order_n = default_order_m - 1
+        !> G >= 1: Gauss-Legendre points (default max(M, N) + 1).
+        integer :: gauss_points = default_order_m + 1
+        !> Step size h > 0.
+        real(wp) :: step_size = default_step_size
+        !> Final time T >= 0 (used when --steps is absent).
+        real(wp) :: final_time = default_final_time
+        !> Number of steps: --steps, or nint(T/h).
+        integer :: steps = 0
+        !> Write a row every `every` steps (t = 0 and the last step always).
+        integer :: every = default_every
+        !> Output file; empty for the output unit given to `run_simulate`.
+        character(len=:), allocatable :: output
+        !> True when --help was given (nothing else is then checked).
+        logical :: help = .false.
+        !> A remark for standard error (e.g. T not a multiple of h); empty if none.
+        character(len=:), allocatable :: note
+    end type simulate_config_t
+
+    !> What a run did: counts and the largest errors over all steps (not only written rows).
+    type :: simulate_summary_t
+        !> Steps completed.
+        integer :: steps_done = 0
+        !> CSV data rows written (the header not counted).
+        integer :: rows = 0
+        !> Energy H0 of the initial state.
+        real(wp) :: initial_energy = 0
+        !> max |(H - H0)/H0| (max |H - H0| when H0 = 0).
+        real(wp) :: max_energy_error = 0
+        !> Largest constraint residual max|phi| seen.
+        real(wp) :: max_constraint_residual = 0
+        !> Largest hidden-constraint residual max|Phi H_p| seen.
+        real(wp) :: max_velocity_residual = 0
+        !> Newton iterations over all steps.
+        integer :: newton_iterations = 0
+        !> Most Newton iterations in one step.
+        integer :: max_newton_iterations = 0
+        !> Wall-clock seconds of the integration.
+        real(wp) :: wall_time = 0
+    end type simulate_summary_t
+
+    !> Observer writing CSV rows and collecting the summary.
+    type, extends(step_observer) :: csv_writer
+        class(constrained_hamiltonian), allocatable :: sys !! the system, for H and residuals
+        integer :: unit = 0            !! unit of the CSV rows
+        integer :: err_unit = 0        !! unit of the progress lines
+        integer :: every = default_every !! row stride
+        integer :: total_steps = 0     !! steps of the run (the last one is always written)
+        real(wp) :: energy_scale = 1   !! H0, or 1 when H0 = 0
+        real(wp), allocatable :: q0(:) !! initial coordinates
+        real(wp), allocatable :: p0(:) !! initial momenta
+        real(wp) :: position0 = 0      !! max|phi| of the initial state
+        real(wp) :: velocity0 = 0      !! max|Phi H_p| of the initial state
+        integer(int64) :: clock_start = 0 !! system_clock at the start
+        integer(int64) :: clock_rate = 1  !! system_clock ticks per second
+        integer(int64) :: clock_last = 0  !! system_clock at the last progress line
+        type(simulate_summary_t) :: summary !! counts and maxima so far
+        integer :: io_status = 0       !! iostat of a failed write, else 0
+        character(len=:), allocatable :: io_message !! iomsg of a failed write
+    contains
+        !> Write rows and update the summary after each step.
+        procedure :: observe => csv_writer_observe
+    end type csv_writer
+
+contains
+
+    !> The text of `holosym simulate --help`.
+    pure function simulate_help() result(text)
+        character(len=:), allocatable :: text !! the help, lines joined by newlines
+        text = join_lines([character(len=96) :: &
+            "Usage: holosym simulate [options]", &
+            "", &
+            "Integrate a constrained Hamiltonian system from its initial state with the", &
+            "symplectic scheme (M, N, G) and write the trajectory as CSV to standard output.", &
+            "", &
+            "Options (also accepted as --name=value):", &
+            "  --system NAME  pendulum: spherical pendulum, paper Example 1 (n = 3, m = 1)", &
+            "                 linkage:  spring-linkage mechanism, Example 2 (n = 6, m = 3)", &
+            "                 planar:   planar pendulum (n = 2, m = 1)       [pendulum]", &
+            "  --M INT        degree of the displacement polynomial, >= 1    [2]", &
+            "  --N INT        degree of the momentum polynomial, >= 0        [M - 1]", &
+            "  --G INT        Gauss-Legendre points, >= 1                    [max(M, N) + 1]", &
+            "  --h REAL       step size, > 0; e.g. 0.0625, 6.25e-2 or 1/16   [0.0625]", &
+            "  --T REAL       final time, >= 0; nint(T/h) steps are taken    [10]", &
+            "                 (a note goes to standard error if T is not a multiple of h)", &
+            "  --steps INT    number of steps, >= 0; overrides --T", &
+            "  --every INT    write a row every INT steps, >= 1; the rows at t = 0 and", &
+            "                 after the last step are always written         [1]", &
+            "  --output FILE  write the CSV to FILE instead of standard output", &
+            "  -h, --help     show this help", &
+            "", &
+            "Columns: t,q1..qn,p1..pn,lambda1..lambdam,H,energy_error,constraint_residual,", &
+            "velocity_residual,newton_iterations, with 36 significant digits (exact in real128).", &
+            "  lambda               multipliers at the end of the step (t = 0: at the start", &
+            "                       of the first step; NaN when no step is taken)", &
+            "  energy_error         (H - H0)/H0", &
+            "  constraint_residual  max|phi| over the step's displacement nodes (t = 0: at q0)", &
+            "  velocity_residual    max|Phi(q) dH/dp(q, p)| at the row's state", &
+            "  newton_iterations    Newton iterations of the step (0 at t = 0)", &
+            "", &
+            "Progress and a summary go to standard error. Exit status: 0 success, 1 failure", &
+            "of the integrator or of the output (rows already written are kept), 2 bad usage.", &
+            "", &
+            "Example:", &
+            "  holosym simulate --system linkage --M 3 --N 2 --G 4 --h 0.0625 --T 1"])
+    end function simulate_help
+
+    !> Parse the options of `simulate` (the arguments after the command name). On success
+    !! `config` holds every setting with defaults filled in and `config%steps` resolved.
+    !! On failure `status` has code HOLOSYM_INVALID_ARGUMENT and a message naming the option
+    !! and the value. With --help, parsing stops there and `config%help` is true.
+    subroutine parse_simulate_options(args, config, status)
+        type(cli_argument_t), intent(in) :: args(:)       !! the command's arguments
+        type(simulate_config_t), intent(out) :: config    !! parsed settings
+        type(holosym_status_t), intent(out) :: status     !! outcome
+        character(len=:), allocatable :: name, inline, value
+        logical :: has_inline, n_given, g_given, t_given, steps_given
+        integer :: i
+
+        config%system = system_names(1)
+        config%output = ""
+        config%note = ""
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        n_given = .false.
+        g_given = .false.
+        t_given = .false.
+        steps_given = .false.
+        i = 1
+        do while (i <= size(args))
+            call split_option(args(i)%text, name, inline, has_inline)
+            select case (name)
+            case ("-h", "--help")
+                if (has_inline) then
+                    call fail(status, "option " // name // " takes no value; got '" // &
+                        args(i)%text // "'")
+                else
+                    config%help = .true.
+                end if
+                return
+            case ("--system", "--M", "--m", "--N", "--n", "--G", "--g", "--h", "--T", "--t", &
+                  "--steps", "--every", "--output")
+                call option_value(args, i, name, inline, has_inline, value, status)
+                if (.not. status%ok()) return
+                call set_option(config, name, value, status)
+                if (.not. status%ok()) return
+                select case (name)
+                case ("--N", "--n")
+                    n_given = .true.
+                case ("--G", "--g")
+                    g_given = .true.
+                case ("--T", "--t")
+                    t_given = .true.
+                case ("--steps")
+                    steps_given = .true.
+                end select
+            case default
+                if (name(1:min(1, len(name))) == "-") then
+                    call fail(status, "unknown option '" // name // "'")
+                else
+                    call fail(status, "unexpected argument '" // args(i)%text // "'")
+                end if
+                return
+            end select
+            i = i + 1
+        end do
+        if (.not. n_given) config%order_n = config%order_m - 1
+        if (.not. g_given) config%gauss_points = max(config%order_m, config%order_n) + 1
+        if (.not. steps_given) then
+            call resolve_steps(config, status)
+        else if (t_given) then
+            config%note = "--steps " // int_str(config%steps) // " overrides --T"
+        end if
+    end subroutine parse_simulate_options
+
+    !> Store one option's value in `config`, checking its syntax and range.
+    subroutine set_option(config, name, value, status)
+        type(simulate_config_t), intent(inout) :: config !! settings so far
+        character(len=*), intent(in) :: name             !! the option as written
+        character(len=*), intent(in) :: value            !! its value text
+        type(holosym_status_t), intent(out) :: status    !! outcome
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        select case (name)
+        case ("--system")
+            if (any(system_names == value)) then
+                config%system = value
+            else
+                call fail(status, "option --system: unknown system '" // value // &
+                    "'; choose pendulum, linkage or planar")
+            end if
+        case ("--M", "--m")
+            call parse_integer(name, value, config%order_m, status)
+            if (status%ok()) call require(config%order_m >= 1, ">= 1")
+        case ("--N", "--n")
+            call parse_integer(name, value, config%order_n, status)
+            if (status%ok()) call require(config%order_n >= 0, ">= 0")
+        case ("--G", "--g")
+            call parse_integer(name, value, config%gauss_points, status)
+            if (status%ok()) call require(config%gauss_points >= 1, ">= 1")
+        case ("--h")
+            call parse_real(name, value, config%step_size, status)
+            if (status%ok()) call require(config%step_size > 0, "> 0")
+        case ("--T", "--t")
+            call parse_real(name, value, config%final_time, status)
+            if (status%ok()) call require(config%final_time >= 0, ">= 0")
+        case ("--steps")
+            call parse_integer(name, value, config%steps, status)
+            if (status%ok()) call require(config%steps >= 0, ">= 0")
+        case ("--every")
+            call parse_integer(name, value, config%every, status)
+            if (status%ok()) call require(config%every >= 1, ">= 1")
+        case ("--output")
+            config%output = value
+        end select
+    contains
+        !> Fail with "option NAME must be BOUND; got VALUE" unless `condition` holds.
+        subroutine require(condition, bound)
+            logical, intent(in) :: condition      !! the range check
+            character(len=*), intent(in) :: bound !! the bound, e.g. ">= 1"
+            if (.not. condition) call fail(status, "option " // name // " must be " // bound &
+                // "; got '" // value // "'")
+        end subroutine require
+    end subroutine set_option
+
+    !> Number of steps from T and h: nint(T/h), with a note when T/h is not an integer
+    !! within round-off, and a failure when it does not fit an integer.
+    subroutine resolve_steps(config, status)
+        type(simulate_config_t), intent(inout) :: config !! settings; `steps` is set
+        type(holosym_status_t), intent(inout) :: status  !! failure when T/h is too large
+        real(wp) :: ratio
+        ratio = config%final_time / config%step_size
+        if (.not. (ratio <= real(huge(config%steps), wp))) then
+            call fail(status, "options --T and --h: T/h is more than " // &
+                int_str(huge(config%steps)) // " steps")
+            return
+        end if
+        config%steps = nint(ratio)
+        if (abs(ratio - config%steps) > multiple_tolerance * max(1.0_wp, ratio)) then
+            config%note = "T = " // real_str(config%final_time) // " is not a multiple of h = " &
+                // real_str(config%step_size) // "; taking nint(T/h) = " // &
+                int_str(config%steps) // " steps, to t = " // &
+                real_str(config%steps * config%step_size)
+        end if
+    end subroutine resolve_steps
+
+    !> The system called `name` (see `system_names`) and its initial state.
+    !! Fails with HOLOSYM_INVALID_ARGUMENT for an unknown name.
+    subroutine make_system(name, sys, q, p, status)
+        character(len=*), intent(in) :: name  !! system name
+        class(constrained_hamiltonian), allocatable, intent(out) :: sys !! the system
+        real(wp), allocatable, intent(out) :: q(:) !! initial coordinates (n)
+        real(wp), allocatable, intent(out) :: p(:) !! initial momenta (n)
+        type(holosym_status_t), intent(out) :: status !! outcome
+        type(spherical_pendulum) :: sphere
+        type(spring_linkage) :: linkage
+        type(planar_pendulum) :: planar
+
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        select case (name)
+        case ("pendulum")
+            sphere = spherical_pendulum()
+            allocate (q(sphere%n), p(sphere%n))
+            call sphere%initial_state(q, p)
+            allocate (sys, source=sphere)
+        case ("linkage")
+            linkage = spring_linkage()
+            allocate (q(linkage%n), p(linkage%n))
+            call linkage%initial_state(q, p)
+            allocate (sys, source=linkage)
+        case ("planar")
+            planar = planar_pendulum()
+            allocate (q(planar%n), p(planar%n))
+            call planar%initial_state(q, p)
+            allocate (sys, source=planar)
+        case default
+            call fail(status, "unknown system '" // name // "'")
+        end select
+    end subroutine make_system
+
+    !> The CSV header for n coordinates and m constraints, e.g. for n = 3, m = 1:
+    !! `t,q1,q2,q3,p1,p2,p3,lambda1,H,energy_error,constraint_residual,velocity_residual,`
+    !! `newton_iterations`.
+    pure function csv_header(n, m) result(header)
+        integer, intent(in) :: n !! number of coordinates
+        integer, intent(in) :: m !! number of constraints
+        character(len=:), allocatable :: header !! the header line
+        integer :: i
+        header = "t"
+        do i = 1, n
+            header = header // ",q" // int_str(i)
+        end do
+        do i = 1, n
+            header = header // ",p" // int_str(i)
+        end do
+        do i = 1, m
+            header = header // ",lambda" // int_str(i)
+        end do
+        header = header // ",H,energy_error,constraint_residual,velocity_residual," // &
+            "newton_iterations"
+    end function csv_header
+
+    !> Run `simulate` with parsed settings: CSV to `out_unit` (or to `config%output`),
+    !! a start line, a note if any and a summary to `err_unit`. Fails with the integrator's
+    !! status (rows already written are kept and flushed), HOLOSYM_INVALID_ARGUMENT when
+    !! the output file cannot be opened, or HOLOSYM_USER_ABORT when a row cannot be written.
+    subroutine run_simulate(config, out_unit, err_unit, status, summary)
+        type(simulate_config_t), intent(in) :: config  !! settings from parse_simulate_options
+        integer, intent(in) :: out_unit  !! open unit for the CSV (unless config%output is set)
+        integer, intent(in) :: err_unit  !! open unit for progress and summary
+        type(holosym_status_t), intent(out) :: status  !! outcome
+        type(simulate_summary_t), intent(out), optional :: summary !! counts and maxima
+        class(constrained_hamiltonian), allocatable :: sys
+        type(constrained_integrator) :: integrator
+        type(csv_writer) :: writer
+        type(step_info_t) :: no_step
+        real(wp), allocatable :: q(:), p(:)
+        integer(int64) :: clock_end
+        integer :: unit, ios, steps_done
+        character(len=256) :: io_message
+
+        call make_system(config%system, sys, q, p, status)
+        if (.not. status%ok()) return
+        call integrator%init(sys, config%order_m, config%order_n, config%gauss_points, status)
+        if (.not. status%ok()) return
+        unit = out_unit
+        if (len(config%output) > 0) then
+            open (newunit=unit, file=config%output, status="replace", action="write", &
+                  iostat=ios, iomsg=io_message)
+            if (ios /= 0) then
+                call fail(status, "cannot open --output '" // config%output // "': " // &
+                    trim(io_message))
+                return
+            end if
+        end if
+        if (len(config%note) > 0) write (err_unit, '(a)') "holosym simulate: note: " // &
+            config%note
+        write (err_unit, '(a)') "holosym simulate: " // config%system // " (n = " // &
+            int_str(sys%n) // ", m = " // int_str(sys%m) // "), (M, N, G) = (" // &
+            int_str(config%order_m) // ", " // int_str(config%order_n) // ", " // &
+            int_str(config%gauss_points) // "), h = " // real_str(config%step_size) // ", " // &
+            int_str(config%steps) // " steps to t = " // &
+            real_str(config%steps * config%step_size)
+        flush (err_unit)
+
+        allocate (writer%sys, source=sys)
+        writer%unit = unit
+        writer%err_unit = err_unit
+        writer%every = config%every
+        writer%total_steps = config%steps
+        writer%q0 = q
+        writer%p0 = p
+        writer%summary%initial_energy = sys%hamiltonian(q, p)
+        writer%energy_scale = writer%summary%initial_energy
+        if (.not. (abs(writer%energy_scale) > 0)) then
+            writer%energy_scale = 1
+            write (err_unit, '(a)') "holosym simulate: note: H0 = 0, energy_error is H - H0"
+        end if
+        call manifold_residuals(sys, q, p, writer%position0, writer%velocity0)
+        call system_clock(writer%clock_start, writer%clock_rate)
+        writer%clock_last = writer%clock_start
+        write (unit, '(a)', iostat=ios, iomsg=io_message) csv_header(sys%n, sys%m)
+        if (ios /= 0) then
+            writer%io_status = ios
+            writer%io_message = trim(io_message)
+        else if (config%steps == 0) then
+            allocate (no_step%lambda(sys%m, 0:0))
+            no_step%lambda = ieee_value(1.0_wp, ieee_quiet_nan)
+            call write_initial_row(writer, no_step)
+        else
+            call integrator%integrate(sys, q, p, config%step_size, config%steps, writer, &
+                                      steps_done, status)
+            writer%summary%steps_done = steps_done
+        end if
+        call system_clock(clock_end)
+        writer%summary%wall_time = real(clock_end - writer%clock_start, wp) / writer%clock_rate
+        if (writer%io_status /= 0) then
+            status%code = HOLOSYM_USER_ABORT
+            status%message = "writing the CSV failed after " // &
+                int_str(writer%summary%steps_done) // " steps: " // writer%io_message
+        end if
+        flush (unit, iostat=ios)
+        if (unit /= out_unit) close (unit, iostat=ios)
+        call write_summary(err_unit, writer%summary)
+        if (present(summary)) summary = writer%summary
+    end subroutine run_simulate
+
+    !> Summary line(s) of a run on standard error.
+    subroutine write_summary(err_unit, summary)
+        integer, intent(in) :: err_unit                  !! unit for the summary
+        type(simulate_summary_t), intent(in) :: summary  !! what the run did
+        character(len=32) :: seconds, mean
+        write (seconds, '(f16.3)') summary%wall_time
+        mean = "0"
+        if (summary%steps_done > 0) write (mean, '(f16.2)') &
+            real(summary%newton_iterations, wp) / summary%steps_done
+        write (err_unit, '(a)') "holosym simulate: " // int_str(summary%steps_done) // &
+            " steps, " // int_str(summary%rows) // " rows in " // trim(adjustl(seconds)) // &
+            " s; Newton iterations per step " // trim(adjustl(mean)) // " (max " // &
+            int_str(summary%max_newton_iterations) // ")"
+        write (err_unit, '(a)') "holosym simulate: max |energy error| " // &
+            real_str(summary%max_energy_error) // ", max |phi| " // &
+            real_str(summary%max_constraint_residual) // ", max |Phi H_p| " // &
+            real_str(summary%max_velocity_residual)
+        flush (err_unit)
+    end subroutine write_summary
+
+    !> Observer: after step k, write the t = 0 row (at k = 1), the row of step k when k is
+    !! a multiple of `every` or the last step, and update the summary.
+    subroutine csv_writer_observe(self, step, t, q, p, info, halt)
+        class(csv_writer), intent(inout) :: self  !! the writer
+        integer, intent(in) :: step          !! step number k >= 1
+        real(wp), intent(in) :: t            !! time k h
+        real(wp), intent(in) :: q(:)         !! coordinates after the step
+        real(wp), intent(in) :: p(:)         !! momenta after the step
+        type(step_info_t), intent(in) :: info !! diagnostics of the step
+        logical, intent(inout) :: halt       !! set on a write failure
+        real(wp) :: energy, energy_error, position, velocity, elapsed
+        integer(int64) :: clock_now
+
+        if (step == 1) then
+            call write_initial_row(self, info)
+            if (self%io_status /= 0) then
+                halt = .true.
+                return
+            end if
+        end if
+        energy = self%sys%hamiltonian(q, p)
+        energy_error = (energy - self%summary%initial_energy) / self%energy_scale
+        call manifold_residuals(self%sys, q, p, position, velocity)
+        associate (s => self%summary)
+            s%steps_done = step
+            s%max_energy_error = max(s%max_energy_error, abs(energy_error))
+            s%max_constraint_residual = max(s%max_constraint_residual, info%constraint_residual)
+            s%max_velocity_residual = max(s%max_velocity_residual, info%velocity_residual)
+            s%newton_iterations = s%newton_iterations + info%newton_iterations
+            s%max_newton_iterations = max(s%max_newton_iterations, info%newton_iterations)
+        end associate
+        if (mod(step, self%every) == 0 .or. step == self%total_steps) then
+            call write_row(self, t, q, p, info%lambda(:, ubound(info%lambda, 2)), energy, &
+                           energy_error, info%constraint_residual, info%velocity_residual, &
+                           info%newton_iterations)
+            if (self%io_status /= 0) halt = .true.
+        end if
+        call system_clock(clock_now)
+        elapsed = real(clock_now - self%clock_last, wp) / self%clock_rate
+        if (elapsed >= progress_interval .and. step < self%total_steps) then
+            self%clock_last = clock_now
+            write (self%err_unit, '(a)') "holosym simulate: step " // int_str(step) // " of " &
+                // int_str(self%total_steps) // ", t = " // real_str(t) // &
+                ", max |energy error| " // real_str(self%summary%max_energy_error)
+            flush (self%err_unit)
+        end if
+    end subroutine csv_writer_observe
+
+    !> Write the t = 0 row: the initial state, the multipliers at the start of the first
+    !! step (`info%lambda(:, 0)`), the residuals of the initial state, 0 iterations.
+    subroutine write_initial_row(writer, info)
+        type(csv_writer), intent(inout) :: writer !! the writer
+        type(step_info_t), intent(in) :: info     !! diagnostics of the first step
+        associate (s => writer%summary)
+            s%max_constraint_residual = max(s%max_constraint_residual, writer%position0)
+            s%max_velocity_residual = max(s%max_velocity_residual, writer%velocity0)
+        end associate
+        call write_row(writer, 0.0_wp, writer%q0, writer%p0, &
+                       info%lambda(:, lbound(info%lambda, 2)), writer%summary%initial_energy, &
+                       0.0_wp, writer%position0, writer%velocity0, 0)
+    end subroutine write_initial_row
+
+    !> Write one CSV row; an I/O failure is recorded in the writer.
+    subroutine write_row(writer, t, q, p, lambda, energy, energy_error, position, velocity, &
+                         iterations)
+        type(csv_writer), intent(inout) :: writer !! the writer
+        real(wp), intent(in) :: t              !! time
+        real(wp), intent(in) :: q(:)           !! coordinates
+        real(wp), intent(in) :: p(:)           !! momenta
+        real(wp), intent(in) :: lambda(:)      !! multipliers
+        real(wp), intent(in) :: energy         !! H
+        real(wp), intent(in) :: energy_error   !! (H - H0)/H0
+        real(wp), intent(in) :: position       !! constraint residual
+        real(wp), intent(in) :: velocity       !! hidden-constraint residual
+        integer, intent(in) :: iterations      !! Newton iterations
+        character(len=:), allocatable :: line
+        character(len=256) :: io_message
+        integer :: i, ios
+
+        line = csv_real(t)
+        do i = 1, size(q)
+            line = line // "," // csv_real(q(i))
+        end do
+        do i = 1, size(p)
+            line = line // "," // csv_real(p(i))
+        end do
+        do i = 1, size(lambda)
+            line = line // "," // csv_real(lambda(i))
+        end do
+        line = line // "," // csv_real(energy) // "," // csv_real(energy_error) // "," // &
+            csv_real(position) // "," // csv_real(velocity) // "," // csv_integer(iterations)
+        write (writer%unit, '(a)', iostat=ios, iomsg=io_message) line
+        if (ios /= 0) then
+            writer%io_status = ios
+            writer%io_message = trim(io_message)
+        else
+            writer%summary%rows = writer%summary%rows + 1
+        end if
+    end subroutine write_row
+
+    !> `holosym simulate ARGS`: parse, run, report. Usage errors and failures go to
+    !! `err_unit`; `exit_code` is EXIT_OK, EXIT_FAILURE (run failed) or EXIT_USAGE.
+    subroutine simulate_command(args, out_unit, err_unit, exit_code)
+        type(cli_argument_t), intent(in) :: args(:) !! arguments after "simulate"
+        integer, intent(in) :: out_unit   !! unit for the CSV and the help
+        integer, intent(in) :: err_unit   !! unit for messages
+        integer, intent(out) :: exit_code !! process exit code
+        type(simulate_config_t) :: config
+        type(holosym_status_t) :: status
+
+        call parse_simulate_options(args, config, status)
+        if (.not. status%ok()) then
+            write (err_unit, '(a)') "holosym simulate: " // status%message
+            write (err_unit, '(a)') "Run 'holosym simulate --help' for the options."
+            exit_code = EXIT_USAGE
+        else if (config%help) then
+            write (out_unit, '(a)') simulate_help()
+            exit_code = EXIT_OK
+        else
+            call run_simulate(config, out_unit, err_unit, status)
+            if (status%ok()) then
+                exit_code = EXIT_OK
+            else
+                write (err_unit, '(a)') "holosym simulate: error: " // &
+                    status_code_name(status%code) // ": " // status%message
+                exit_code = EXIT_FAILURE
+            end if
+        end if
+    end subroutine simulate_command
+
+end module holosym_cli_simulate
