@@ -370,13 +370,7 @@ contains
                 write (unit, '(a)') "## Table 1b: order of the global error of q(T), " // &
                     "G = max(M, N) + 1"
             end if
-            write (unit, '(a)') ""
-            line = "| M \ N |"
-            do order_n = 0, max_n
-                line = line // " " // int_str(order_n) // " |"
-            end do
-            write (unit, '(a)') line
-            write (unit, '(a)') "|---|" // repeat("---|", max_n + 1)
+            call write_grid_header(unit, max_n)
             do order_m = 1, max_m
                 line = "| " // int_str(order_m) // " |"
                 do order_n = 0, max_n
@@ -424,13 +418,7 @@ contains
             "initial state for G = 1, 2, ...; singular when a pivot of the row-equilibrated " // &
             "Jacobian is <= n_x * epsilon (n_x unknowns, e.g. " // &
             real_str(default_pivot_tolerance(50)) // " for n_x = 50). Cell: found / paper."
-        write (unit, '(a)') ""
-        line = "| M \ N |"
-        do order_n = 0, max_n
-            line = line // " " // int_str(order_n) // " |"
-        end do
-        write (unit, '(a)') line
-        write (unit, '(a)') "|---|" // repeat("---|", max_n + 1)
+        call write_grid_header(unit, max_n)
         agree = 0
         do order_m = 1, max_m
             line = "| " // int_str(order_m) // " |"
@@ -456,6 +444,21 @@ contains
         write (unit, '(a)') ""
         write (unit, '(a)') "Wall time: " // order_text(result%seconds) // " s"
     end subroutine write_tables_markdown
+
+    !> A blank line and the header of an M x N grid table with columns N = 0..max_n.
+    subroutine write_grid_header(unit, max_n)
+        integer, intent(in) :: unit
+        integer, intent(in) :: max_n
+        character(len=:), allocatable :: line
+        integer :: order_n
+        write (unit, '(a)') ""
+        line = "| M \ N |"
+        do order_n = 0, max_n
+            line = line // " " // int_str(order_n) // " |"
+        end do
+        write (unit, '(a)') line
+        write (unit, '(a)') "|---|" // repeat("---|", max_n + 1)
+    end subroutine write_grid_header
 
     function step_list(result) result(text)
         type(tables_result_t), intent(in) :: result

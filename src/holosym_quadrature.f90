@@ -28,18 +28,11 @@ contains
         type(holosym_status_t), intent(out), optional :: status !! success or invalid size
         integer :: npts, i, iter
         real(wp) :: x, dx, p, dp
+        logical :: valid
 
         npts = size(nodes)
-        if (npts < 1) then
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, &
-                "Gauss-Legendre rule needs at least 1 point, got " // int_str(npts))
-            return
-        end if
-        if (size(weights) /= npts) then
-            call set_status(status, HOLOSYM_SIZE_MISMATCH, "weights has size " // &
-                int_str(size(weights)) // ", nodes has size " // int_str(npts))
-            return
-        end if
+        call check_sizes("Gauss-Legendre", 1, nodes, weights, valid, status)
+        if (.not. valid) return
         ! Roots of P_G in (-1, 1); compute the upper half and mirror it (exact symmetry).
         do i = 1, (npts + 1) / 2
             x = cos(pi * (i - 0.25_wp) / (npts + 0.5_wp))
@@ -68,18 +61,11 @@ contains
         type(holosym_status_t), intent(out), optional :: status !! success or invalid size
         integer :: npts, degree, i, iter
         real(wp) :: x, dx, p, dp, d2p
+        logical :: valid
 
         npts = size(nodes)
-        if (npts < 2) then
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, &
-                "Gauss-Lobatto rule needs at least 2 points, got " // int_str(npts))
-            return
-        end if
-        if (size(weights) /= npts) then
-            call set_status(status, HOLOSYM_SIZE_MISMATCH, "weights has size " // &
-                int_str(size(weights)) // ", nodes has size " // int_str(npts))
-            return
-        end if
+        call check_sizes("Gauss-Lobatto", 2, nodes, weights, valid, status)
+        if (.not. valid) return
         degree = npts - 1
         ! Interior nodes: roots of P'_{k-1}; weights 2/(k(k-1) P_{k-1}^2) on [-1, 1].
         nodes(1) = 0
@@ -105,6 +91,25 @@ contains
         if (mod(npts, 2) == 1) nodes((npts + 1) / 2) = 0.5_wp
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine gauss_lobatto
+
+    !> Check the sizes of a rule's arrays; on failure set `status` and return false.
+    pure subroutine check_sizes(rule, min_points, nodes, weights, valid_sizes, status)
+        character(len=*), intent(in) :: rule   !! name of the rule, for the message
+        integer, intent(in) :: min_points      !! fewest points the rule has
+        real(wp), intent(in) :: nodes(:), weights(:)
+        logical, intent(out) :: valid_sizes
+        type(holosym_status_t), intent(inout), optional :: status
+        valid_sizes = .false.
+        if (size(nodes) < min_points) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, rule // " rule needs at least " &
+                // int_str(min_points) // " point(s), got " // int_str(size(nodes)))
+        else if (size(weights) /= size(nodes)) then
+            call set_status(status, HOLOSYM_SIZE_MISMATCH, "weights has size " // &
+                int_str(size(weights)) // ", nodes has size " // int_str(size(nodes)))
+        else
+            valid_sizes = .true.
+        end if
+    end subroutine check_sizes
 
     !> Legendre polynomial P_n and its derivative at x in (-1, 1), by the recurrence.
     pure subroutine legendre(n, x, p, dp)

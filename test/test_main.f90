@@ -9,6 +9,7 @@ program holosym_tests
     use test_errors, only: errors_tests
     use test_integrator, only: integrator_tests
     use test_cli, only: cli_tests
+    use test_tables, only: tables_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed
@@ -26,6 +27,7 @@ program holosym_tests
     call run_suite("errors", errors_tests(), filter, passed, failed)
     call run_suite("integrator", integrator_tests(), filter, passed, failed)
     call run_suite("cli", cli_tests(), filter, passed, failed)
+    call run_suite("tables", tables_tests(), filter, passed, failed)
     write (summary, '(i0, " passed, ", i0, " failed")') passed, failed
     print '(a)', trim(summary)
     if (failed > 0) error stop 1
