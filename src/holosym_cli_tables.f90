@@ -34,6 +34,8 @@ module holosym_cli_tables
     !> Reference solution: M = 8 (order 16) at h = 1/16, checked against h = 1/32.
     integer, parameter :: reference_order = 8
     real(wp), parameter :: reference_step = 0.0625_wp
+    !> Global errors must exceed the reference's change by this factor to be used.
+    real(wp), parameter :: reference_margin = 100
     !> Table 2 tries G = M .. M + extra_gauss; Table 3 searches G up to max(M, N) + that.
     integer, parameter :: extra_gauss = 3
     !> Step size of the trial step of Table 3.
@@ -229,6 +231,9 @@ contains
         end do
         result%reference_change = maxval(abs(q_ref - q_check))
         q_ref = q_check
+        ! Global errors near the reference's own error say nothing about the order.
+        result%settings%global_floor = max(result%settings%error_floor, &
+                                           reference_margin * result%reference_change)
         if (options%progress) write (err_unit, '(a)') "tables: reference (M = " // &
             int_str(reference_order) // ") changes by " // real_str(result%reference_change) &
             // " from h = 1/16 to 1/32"
@@ -359,8 +364,10 @@ contains
             order_text(agreement) // ", and the step pair (h1, h2) used. Energy error " // &
             "E = max_t |(H_t - H_0)/H_0|; global error max|q(T) - q_ref(T)| against M = " // &
             int_str(reference_order) // ", h = 1/32 (which differs from h = 1/16 by " // &
-            real_str(result%reference_change) // "). Errors below " // &
-            real_str(result%settings%error_floor) // " are not used."
+            real_str(result%reference_change) // "). Energy errors below " // &
+            real_str(result%settings%error_floor) // " and global errors below " // &
+            real_str(result%settings%global_floor) // " (100 times that change, at least " // &
+            "the same floor) are not used."
         do i = 1, 2
             energy = i == 1
             write (unit, '(a)') ""

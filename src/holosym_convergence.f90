@@ -23,6 +23,8 @@ module holosym_convergence
         real(wp), allocatable :: step_sizes(:)
         !> Errors at or below this are round-off dominated and not used for orders.
         real(wp) :: error_floor = 1.0e-28_wp
+        !> The same for the global error, which is also limited by the reference's accuracy.
+        real(wp) :: global_floor = 1.0e-28_wp
         !> Stop refining once two successive orders agree this closely.
         real(wp) :: settled = 0.1_wp
         !> Print one line per finished cell to stderr.
@@ -143,13 +145,16 @@ contains
             global(k) = maxval(abs(q_end - q_ref))
             cell%levels = k
             ! Finer steps help neither measure once each is at the floor or has settled.
-            if (done(energy(1:k)) .and. done(global(1:k))) exit
+            if (done(energy(1:k), settings%error_floor) .and. &
+                done(global(1:k), settings%global_floor)) exit
         end do
         if (cell%code == HOLOSYM_SUCCESS .or. cell%levels >= 2) then
-            call pick_pair(energy(1:cell%levels), settings, cell%energy_h, cell%energy_error, &
-                           cell%energy_order, cell%energy_measured)
-            call pick_pair(global(1:cell%levels), settings, cell%global_h, cell%global_error, &
-                           cell%global_order, cell%global_measured)
+            call pick_pair(energy(1:cell%levels), settings%step_sizes, settings%error_floor, &
+                           cell%energy_h, cell%energy_error, cell%energy_order, &
+                           cell%energy_measured)
+            call pick_pair(global(1:cell%levels), settings%step_sizes, settings%global_floor, &
+                           cell%global_h, cell%global_error, cell%global_order, &
+                           cell%global_measured)
         end if
         call system_clock(count_end)
         cell%seconds = real(count_end - count_start, wp) / count_rate
@@ -158,12 +163,12 @@ contains
 
         !> An error sequence needs no finer level: its last value is at the floor, or its
         !! last two orders agree within `settings%settled`.
-        pure logical function done(errors)
-            real(wp), intent(in) :: errors(:)
+        pure logical function done(errors, floor)
+            real(wp), intent(in) :: errors(:), floor
             real(wp) :: orders(2)
             integer :: last
             last = size(errors)
-            done = errors(last) <= settings%error_floor
+            done = errors(last) <= floor
             if (done .or. last < 3) return
             orders = log(errors(last - 2:last - 1) / errors(last - 1:last)) / &
                      log(settings%step_sizes(last - 2:last - 1) / settings%step_sizes(last - 1:last))
@@ -173,9 +178,8 @@ contains
     end subroutine measure_order
 
     !> The last pair of successive levels with both errors above the floor, and its order.
-    pure subroutine pick_pair(errors, settings, h, pair, order, measured)
-        real(wp), intent(in) :: errors(:)
-        type(study_settings_t), intent(in) :: settings
+    pure subroutine pick_pair(errors, step_sizes, floor, h, pair, order, measured)
+        real(wp), intent(in) :: errors(:), step_sizes(:), floor
         real(wp), intent(out) :: h(2), pair(2), order
         logical, intent(out) :: measured
         integer :: k
@@ -184,8 +188,8 @@ contains
         pair = 0
         order = 0
         do k = size(errors), 2, -1
-            if (errors(k) > settings%error_floor .and. errors(k - 1) > settings%error_floor) then
-                h = settings%step_sizes(k - 1:k)
+            if (errors(k) > floor .and. errors(k - 1) > floor) then
+                h = step_sizes(k - 1:k)
                 pair = errors(k - 1:k)
                 order = log(pair(1) / pair(2)) / log(h(1) / h(2))
                 measured = .true.
