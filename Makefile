@@ -1,13 +1,18 @@
 # holosym: two-command quick start on a fresh Debian/Ubuntu machine.
 #   make test     install what is missing, build, run the test suite
 #   make tables   the paper's Tables 1-3 (convergence orders, minimum Gauss points)
+#   make bench    work-precision benchmark (real128 and real64 builds) into build/bench
 # Other targets: make pendulum, make linkage, make examples, make deps.
 
 FPM ?= fpm
 FPM_FLAGS ?= --profile release
 SIMULATE_ARGS ?= --M 2 --N 1 --G 3 --h 0.125 --T 10 --every 8
+BENCH_DIR ?= build/bench
+BENCH_ARGS ?=
+# The real64 build of the whole library (see src/holosym_kinds.F90).
+REAL64_FLAGS ?= --flag "-DHOLOSYM_REAL64"
 
-.PHONY: all deps test tables pendulum linkage examples clean
+.PHONY: all deps test test64 tables bench pendulum linkage examples clean
 
 all: test
 
@@ -20,6 +25,19 @@ test: deps
 
 tables: deps
 	$(FPM) run $(FPM_FLAGS) -- tables
+
+# The test suite in the real64 build.
+test64: deps
+	$(FPM) test $(REAL64_FLAGS)
+
+# real128 sweep (writes the reference), real64 sweep against it, summary, plot.
+bench: deps
+	$(FPM) run $(FPM_FLAGS) -- bench --out $(BENCH_DIR) $(BENCH_ARGS)
+	$(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) -- bench --out $(BENCH_DIR) \
+		--reference $(BENCH_DIR)/reference.csv $(BENCH_ARGS)
+	$(FPM) run $(FPM_FLAGS) -- bench --summarize $(BENCH_DIR) > /dev/null
+	./tools/plot_bench.sh $(BENCH_DIR)
+	@cat $(BENCH_DIR)/summary.md
 
 pendulum: deps
 	$(FPM) run $(FPM_FLAGS) -- simulate --system pendulum $(SIMULATE_ARGS)

@@ -17,6 +17,8 @@ module holosym
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
+    use holosym_projection, only: project_to_manifold, projection_report_t, &
+        projection_max_iterations_default
     implicit none
     public
 end module holosym

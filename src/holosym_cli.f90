@@ -9,6 +9,7 @@ module holosym_cli
     use holosym_cli_common, only: cli_argument_t, join_lines, EXIT_OK, EXIT_USAGE
     use holosym_cli_simulate, only: simulate_command
     use holosym_cli_tables, only: tables_command
+    use holosym_cli_bench, only: bench_command
     implicit none
     private
 
@@ -28,6 +29,7 @@ contains
             "Commands:", &
             "  simulate   integrate a system and write its trajectory as CSV", &
             "  tables     measure the paper's Tables 1-2 and the minimum Gauss points", &
+            "  bench      work-precision benchmark against composed RATTLE; speed options", &
             "", &
             "Run 'holosym COMMAND --help' (or 'holosym help COMMAND') for a command's options.", &
             "Exit status: 0 success, 1 the command failed, 2 bad usage."])
@@ -76,6 +78,8 @@ contains
             call simulate_command(args, out_unit, err_unit, exit_code)
         case ("tables")
             call tables_command(args, out_unit, err_unit, exit_code)
+        case ("bench")
+            call bench_command(args, out_unit, err_unit, exit_code)
         case default
             write (err_unit, '(a)') "holosym: unknown command '" // name // &
                 "'; run 'holosym --help' for the list of commands"

@@ -4,8 +4,24 @@
 !! `integrate` runs many steps with compensated summation of the increments (round-off
 !! grows like the square root of the step count), reports each step to an optional
 !! observer, and on failure keeps the state of the last good step.
+!!
+!! Speed options (components of the integrator; each leaves the results unchanged to
+!! round-off, because every path iterates the same working-precision residual to the
+!! same tolerance):
+!!
+!! | component | values (default first) | effect |
+!! |---|---|---|
+!! | `newton%simplified` | `.false.`, `.true.` | keep the factorised Jacobian across iterations and steps while it contracts |
+!! | `linear_solver` | `'real128'`, `'mixed'` | factor in working precision, or in real64 with LAPACK dgetrf/dgetrs |
+!! | `jacobian` | `'assembled'`, `'residual-differences'` | from second derivatives, or differences of the residual |
+!! | `hessians` | `'user'`, `'differences'` | the system's `hessian` bindings, or differences of its gradients |
+!! | `extrapolate` | `.true.`, `.false.` | first guess from the previous step's polynomials |
+!!
+!! `'native'` is a synonym of `'real128'` and `'lapack'` of `'mixed'`; in the real64 build
+!! (`-DHOLOSYM_REAL64`) the default linear solver is `'lapack'`. `stats` counts the work.
 module holosym_integrator
-    use holosym_kinds, only: wp
+    use, intrinsic :: iso_fortran_env, only: int64
+    use holosym_kinds, only: wp, wp_is_double
     use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
@@ -13,13 +29,19 @@ module holosym_integrator
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
     use holosym_linalg, only: lu_factor
     use holosym_problem, only: constrained_hamiltonian
-    use holosym_newton, only: newton_settings_t, newton_report_t, newton_solve
-    use holosym_scheme, only: discrete_scheme
+    use holosym_newton, only: newton_settings_t, newton_report_t, newton_solve, &
+        newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
+    use holosym_scheme, only: discrete_scheme, JACOBIAN_ASSEMBLED, &
+        JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default
     implicit none
     private
 
-    public :: constrained_integrator, step_info_t, step_observer
+    public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t
+
+    !> Default `linear_solver`: the library's LU in real128, LAPACK in the real64 build.
+    character(len=*), parameter :: default_linear_solver = &
+        trim(merge("lapack ", "real128", wp_is_double))
 
     !> What one step did and how well the constraints hold after it.
     type :: step_info_t
@@ -33,7 +55,34 @@ module holosym_integrator
         real(wp) :: pivot_ratio = 0
         !> Multipliers lambda_k at the displacement nodes, m x (0:M).
         real(wp), allocatable :: lambda(:, :)
+        !> Residual evaluations of the step (including residual-difference Jacobians).
+        integer :: residual_evaluations = 0
+        !> Jacobian evaluations (= LU factorisations) of the step.
+        integer :: lu_factorizations = 0
+        !> Calls of dh_dq or dh_dp in the step (difference Hessians count 6n each).
+        integer :: gradient_evaluations = 0
+        !> Calls of hessian or constraint_hessian in the step.
+        integer :: hessian_evaluations = 0
     end type step_info_t
+
+    !> Work done since `init` (or `reset_statistics`), summed over successful and failed
+    !! Newton solves.
+    type :: integrator_stats_t
+        !> Completed steps.
+        integer(int64) :: steps = 0
+        !> Newton iterations.
+        integer(int64) :: newton_iterations = 0
+        !> Residual evaluations (including those of residual-difference Jacobians).
+        integer(int64) :: residual_evaluations = 0
+        !> Jacobian evaluations.
+        integer(int64) :: jacobian_evaluations = 0
+        !> LU factorisations (real128 or real64).
+        integer(int64) :: lu_factorizations = 0
+        !> Calls of dh_dq or dh_dp (difference Hessians count 6n each).
+        integer(int64) :: gradient_evaluations = 0
+        !> Calls of hessian or constraint_hessian.
+        integer(int64) :: hessian_evaluations = 0
+    end type integrator_stats_t
 
     !> Receives every step of `integrate`. Extend it; keep your data as components.
     type, abstract :: step_observer
@@ -61,6 +110,14 @@ module holosym_integrator
         type(newton_settings_t) :: newton
         !> Start Newton from the previous step's polynomials when the state continues it.
         logical :: extrapolate = .true.
+        !> LU of the Newton Jacobian: 'real128' (working precision) or 'mixed' (real64 LAPACK).
+        character(len=16) :: linear_solver = default_linear_solver
+        !> Newton Jacobian: 'assembled' (second derivatives) or 'residual-differences'.
+        character(len=24) :: jacobian = "assembled"
+        !> Second derivatives: 'user' (the system's bindings) or 'differences' (of gradients).
+        character(len=16) :: hessians = "user"
+        !> Work counters since init (read them; `reset_statistics` zeroes them).
+        type(integrator_stats_t) :: stats
         !> Largest scaled residual of an accepted start state (see manifold_residuals).
         real(wp) :: manifold_tolerance = manifold_tolerance_default
         type(discrete_scheme), private :: scheme
@@ -70,6 +127,12 @@ module holosym_integrator
         real(wp), allocatable, private :: last_qb(:), last_pb(:)
         real(wp), private :: last_h = 0
         type(step_info_t), private :: last_info
+        ! Preallocated workspace: no allocation inside a step.
+        type(newton_workspace_t), private :: workspace
+        real(wp), private :: workspace_h = 0
+        integer, private :: applied_modes(3) = 0
+        real(wp), allocatable, private :: x_work(:), dq_work(:), dp_work(:)
+        real(wp), allocatable, private :: end_jac(:, :), end_velocity(:)
     contains
         !> Set up for a system and (M, N, G).
         procedure :: init => integrator_init
@@ -83,6 +146,8 @@ module holosym_integrator
         procedure :: last_step => integrator_last_step
         !> (M, N, G) of the scheme.
         procedure :: orders => integrator_orders
+        !> Zero the work counters `stats`.
+        procedure :: reset_statistics => integrator_reset_statistics
     end type constrained_integrator
 
 contains
@@ -110,6 +175,18 @@ contains
         if (allocated(self%last_info%lambda)) deallocate (self%last_info%lambda)
         allocate (self%last_info%lambda(sys%m, 0:order_m))
         self%last_info%lambda = 0
+        if (allocated(self%x_work)) deallocate (self%x_work, self%dq_work, self%dp_work, &
+                                                self%end_jac, self%end_velocity)
+        if (allocated(self%last_x)) deallocate (self%last_x, self%last_qa, self%last_pa, &
+                                                self%last_qb, self%last_pb)
+        allocate (self%x_work(scheme%nx), self%dq_work(sys%n), self%dp_work(sys%n), &
+                  self%end_jac(sys%m, sys%n), self%end_velocity(sys%n))
+        allocate (self%last_x(scheme%nx), self%last_qa(sys%n), self%last_pa(sys%n), &
+                  self%last_qb(sys%n), self%last_pb(sys%n))
+        call self%workspace%setup(scheme%nx)
+        call self%workspace%invalidate()
+        self%applied_modes = 0
+        self%stats = integrator_stats_t()
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine integrator_init
 
@@ -193,18 +270,79 @@ contains
             "a combination of the others (pivot of Phi Phi^T below m epsilon)"
     end function full_rank_constraints
 
-    !> Solve one step from (q, p) without changing them; return the increments.
-    subroutine solve_step(self, sys, q, p, h, dq, dp, status)
+    !> Zero the work counters `stats`.
+    subroutine integrator_reset_statistics(self)
+        class(constrained_integrator), intent(inout) :: self
+        self%stats = integrator_stats_t()
+    end subroutine integrator_reset_statistics
+
+    !> Translate the option strings into the modes of the scheme and the Newton workspace.
+    !! Code HOLOSYM_INVALID_ARGUMENT names an unknown value.
+    subroutine apply_options(self, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        real(wp), intent(in) :: h
+        type(holosym_status_t), intent(inout) :: status
+        integer :: modes(3)
+        select case (self%linear_solver)
+        case ("real128", "native")
+            modes(1) = LINEAR_SOLVER_NATIVE
+        case ("mixed", "lapack")
+            modes(1) = LINEAR_SOLVER_MIXED
+        case default
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "linear_solver must be " // &
+                "'real128' or 'mixed'; got '" // trim(self%linear_solver) // "'")
+            return
+        end select
+        select case (self%jacobian)
+        case ("assembled")
+            modes(2) = JACOBIAN_ASSEMBLED
+        case ("residual-differences")
+            modes(2) = JACOBIAN_RESIDUAL_DIFFERENCES
+        case default
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "jacobian must be " // &
+                "'assembled' or 'residual-differences'; got '" // trim(self%jacobian) // "'")
+            return
+        end select
+        select case (self%hessians)
+        case ("user")
+            modes(3) = HESSIANS_USER
+        case ("differences")
+            modes(3) = HESSIANS_DIFFERENCES
+        case default
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "hessians must be 'user' or " // &
+                "'differences'; got '" // trim(self%hessians) // "'")
+            return
+        end select
+        ! Kept factors belong to one step size and one way of forming the Jacobian.
+        if (any(modes /= self%applied_modes) .or. h /= self%workspace_h) then
+            call self%workspace%invalidate()
+            self%applied_modes = modes
+            self%workspace_h = h
+        end if
+        self%workspace%linear_solver = modes(1)
+        self%scheme%jacobian_mode = modes(2)
+        self%scheme%hessian_mode = modes(3)
+    end subroutine apply_options
+
+    !> Solve one step from (q, p) without changing them; the increments are left in
+    !! self%dq_work, self%dp_work and the step's data in self%last_*.
+    subroutine solve_step(self, sys, q, p, h, status)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
-        real(wp), intent(out) :: dq(:), dp(:)
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: x(self%scheme%nx), scale, max_phi, position
+        real(wp) :: scale, max_phi
         type(newton_report_t) :: report
         logical :: extrapolated
-        integer :: order_m, order_n, gauss_points
+        integer :: order_m, order_n, gauss_points, l, iterations, factorizations
+        integer(int64) :: residuals0, gradients0, hessians0
 
+        status%code = HOLOSYM_SUCCESS
+        call apply_options(self, h, status)
+        if (.not. status%ok()) return
+        residuals0 = self%scheme%counters%residuals
+        gradients0 = self%scheme%counters%gradients
+        hessians0 = self%scheme%counters%hessians
         call self%scheme%set_step(sys, q, p, h)
         extrapolated = .false.
         if (self%extrapolate .and. self%have_last) then
@@ -212,20 +350,38 @@ contains
         end if
         if (extrapolated) then
             call self%scheme%extrapolated_guess(self%last_x, self%last_qa, self%last_pa, &
-                                                self%last_h, q, p, h, x)
+                                                self%last_h, q, p, h, self%x_work)
         else
-            call self%scheme%constant_guess(x)
+            call self%scheme%constant_guess(self%x_work)
         end if
         ! Increments are compared with the size of the state, not with themselves.
         scale = max(maxval(abs(q)), maxval(abs(p)))
         if (scale <= 0) scale = 1
-        call newton_solve(self%scheme, x, self%newton, scale, report, status)
+        call newton_solve(self%scheme, self%x_work, self%newton, scale, report, status, &
+                          self%workspace)
+        iterations = report%iterations
+        factorizations = report%factorizations
+        if (.not. status%ok() .and. report%reused_factors .and. &
+            status%code /= HOLOSYM_NONFINITE_VALUE) then
+            ! Factors kept from earlier steps may be too stale: retry with fresh ones.
+            call newton_solve(self%scheme, self%x_work, self%newton, scale, report, status, &
+                              self%workspace)
+            iterations = iterations + report%iterations
+            factorizations = factorizations + report%factorizations
+        end if
         if (.not. status%ok() .and. extrapolated .and. status%code /= HOLOSYM_NONFINITE_VALUE) then
             ! A poor extrapolation (e.g. after a change of h) should not fail the step.
-            call self%scheme%constant_guess(x)
-            call newton_solve(self%scheme, x, self%newton, scale, report, status)
+            call self%scheme%constant_guess(self%x_work)
+            call newton_solve(self%scheme, self%x_work, self%newton, scale, report, status, &
+                              self%workspace)
+            iterations = iterations + report%iterations
+            factorizations = factorizations + report%factorizations
         end if
+        self%stats%newton_iterations = self%stats%newton_iterations + iterations
+        self%stats%lu_factorizations = self%stats%lu_factorizations + factorizations
+        self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + factorizations
         if (.not. status%ok()) then
+            call count_evaluations()
             call self%orders(order_m, order_n, gauss_points)
             status%message = "step with (M, N, G) = (" // int_str(order_m) // ", " // &
                 int_str(order_n) // ", " // int_str(gauss_points) // "), h = " // real_str(h) // &
@@ -234,31 +390,60 @@ contains
                 "; G or N may be too small for M (the paper needs G > max(M, N))"
             return
         end if
-        call self%scheme%increments(x, dq, dp, status)
+        call self%scheme%increments(self%x_work, self%dq_work, self%dp_work, status)
         if (.not. status%ok()) return
-        if (.not. (all(is_finite(dq)) .and. all(is_finite(dp)))) then
+        if (.not. (all(is_finite(self%dq_work)) .and. all(is_finite(self%dp_work)))) then
             call set_status(status, HOLOSYM_NONFINITE_VALUE, "step produced a non-finite state")
             return
         end if
-        call self%scheme%node_values(x, self%last_info%lambda, max_phi)
-        self%last_info%newton_iterations = report%iterations
+        call self%scheme%node_values(self%x_work, self%last_info%lambda, max_phi)
+        self%last_info%newton_iterations = iterations
         self%last_info%constraint_residual = max_phi
         self%last_info%pivot_ratio = report%pivot_ratio
-        self%last_x = x
+        self%last_info%lu_factorizations = factorizations
+        self%last_x = self%x_work
         self%last_qa = q
         self%last_pa = p
         self%last_h = h
-        self%last_qb = q + dq
-        self%last_pb = p + dp
-        call manifold_residuals(sys, self%last_qb, self%last_pb, position, &
-                                self%last_info%velocity_residual)
+        self%last_qb = q + self%dq_work
+        self%last_pb = p + self%dp_work
+        ! Hidden constraint at the step end, max |Phi(q_b) H_p(q_b, p_b)|, without allocation.
+        self%last_info%velocity_residual = 0
+        if (sys%m > 0) then
+            call sys%constraint_jacobian(self%last_qb, self%end_jac)
+            call sys%dh_dp(self%last_qb, self%last_pb, self%end_velocity)
+            self%scheme%counters%gradients = self%scheme%counters%gradients + 1
+            do l = 1, sys%m
+                self%last_info%velocity_residual = max(self%last_info%velocity_residual, &
+                    abs(sum(self%end_jac(l, :) * self%end_velocity)))
+            end do
+        end if
         self%have_last = .true.
+        self%stats%steps = self%stats%steps + 1
+        call count_evaluations()
+
+    contains
+
+        !> Evaluations of this step from the scheme's counters.
+        subroutine count_evaluations()
+            integer(int64) :: residuals, gradients, hessians
+            residuals = self%scheme%counters%residuals - residuals0
+            gradients = self%scheme%counters%gradients - gradients0
+            hessians = self%scheme%counters%hessians - hessians0
+            self%last_info%residual_evaluations = int(residuals)
+            self%last_info%gradient_evaluations = int(gradients)
+            self%last_info%hessian_evaluations = int(hessians)
+            self%stats%residual_evaluations = self%stats%residual_evaluations + residuals
+            self%stats%gradient_evaluations = self%stats%gradient_evaluations + gradients
+            self%stats%hessian_evaluations = self%stats%hessian_evaluations + hessians
+        end subroutine count_evaluations
+
     end subroutine solve_step
 
     !> Advance (q, p) by one step of size h. On failure q and p are unchanged.
     !! Codes: HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH,
-    !! HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_OFF_MANIFOLD,
-    !! HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_SINGULAR_MATRIX,
+    !! HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_ARGUMENT (also an unknown option value),
+    !! HOLOSYM_OFF_MANIFOLD, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_SINGULAR_MATRIX,
     !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE.
     subroutine integrator_step(self, sys, q, p, h, info, status)
         class(constrained_integrator), intent(inout) :: self
@@ -269,13 +454,9 @@ contains
         type(step_info_t), intent(out), optional :: info !! diagnostics of the step
         type(holosym_status_t), intent(out), optional :: status !! outcome
         type(holosym_status_t) :: local
-        real(wp), allocatable :: dq(:), dp(:)
 
         call validate(self, sys, q, p, h, local)
-        if (local%ok()) then
-            allocate (dq(size(q)), dp(size(p)))
-            call solve_step(self, sys, q, p, h, dq, dp, local)
-        end if
+        if (local%ok()) call solve_step(self, sys, q, p, h, local)
         if (.not. local%ok()) then
             call set_status(status, local%code, local%message)
             return
@@ -304,7 +485,7 @@ contains
         type(holosym_status_t), intent(out), optional :: status !! outcome
         real(wp), intent(in), optional :: start_time !! t of the start state (default 0)
         type(holosym_status_t) :: local
-        real(wp), allocatable :: dq(:), dp(:), q_error(:), p_error(:), summand(:), total(:)
+        real(wp), allocatable :: q_error(:), p_error(:), summand(:), total(:)
         real(wp) :: t0
         integer :: k
         logical :: halt
@@ -322,23 +503,23 @@ contains
         end if
         t0 = 0
         if (present(start_time)) t0 = start_time
-        allocate (dq(size(q)), dp(size(p)), q_error(size(q)), p_error(size(p)))
+        allocate (q_error(size(q)), p_error(size(p)), summand(size(q)), total(size(q)))
         q_error = 0
         p_error = 0
         halt = .false.
         do k = 1, steps
-            call solve_step(self, sys, q, p, h, dq, dp, local)
+            call solve_step(self, sys, q, p, h, local)
             if (.not. local%ok()) then
                 call set_status(status, local%code, "after " // int_str(k - 1) // " steps: " // &
                     local%message)
                 return
             end if
             ! Kahan summation: carry the low-order part of each update into the next.
-            summand = dq + q_error
+            summand = self%dq_work + q_error
             total = q + summand
             q_error = (q - total) + summand
             q = total
-            summand = dp + p_error
+            summand = self%dp_work + p_error
             total = p + summand
             p_error = (p - total) + summand
             p = total

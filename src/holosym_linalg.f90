@@ -4,12 +4,45 @@
 !! Reference LAPACK has no real128 routines, so these are written here. A pivot whose
 !! magnitude is at most `tolerance * max|A|` (default `default_pivot_tolerance(n)` =
 !! n * epsilon) marks the matrix as singular to working precision.
+!!
+!! `lu_factor_dp`/`lu_solve_dp` are the real64 counterparts: they call LAPACK's
+!! dgetrf/dgetrs through explicit interfaces with real64 arrays (never real128 data).
+!! Newton uses them for mixed precision (a real64 factorisation, real128 residuals) and,
+!! in the real64 build, for everything.
 module holosym_linalg
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     implicit none
     private
 
     public :: lu_factor, lu_solve, default_pivot_tolerance
+    public :: lu_factor_dp, lu_solve_dp, default_pivot_tolerance_dp
+
+    interface
+        !> LAPACK: LU factorisation of a real64 general matrix.
+        subroutine dgetrf(m, n, a, lda, ipiv, info)
+            import :: dp
+            integer, intent(in) :: m      !! rows
+            integer, intent(in) :: n      !! columns
+            integer, intent(in) :: lda    !! leading dimension of a
+            real(dp), intent(inout) :: a(lda, *) !! matrix in, factors out
+            integer, intent(out) :: ipiv(*)     !! pivot indices
+            integer, intent(out) :: info        !! 0, -i bad argument i, i > 0 zero pivot
+        end subroutine dgetrf
+
+        !> LAPACK: solve with the factors of dgetrf.
+        subroutine dgetrs(trans, n, nrhs, a, lda, ipiv, b, ldb, info)
+            import :: dp
+            character(len=1), intent(in) :: trans !! 'N': A x = b
+            integer, intent(in) :: n      !! order
+            integer, intent(in) :: nrhs   !! right-hand sides
+            integer, intent(in) :: lda    !! leading dimension of a
+            real(dp), intent(in) :: a(lda, *)   !! factors
+            integer, intent(in) :: ipiv(*)      !! pivots
+            integer, intent(in) :: ldb    !! leading dimension of b
+            real(dp), intent(inout) :: b(ldb, *) !! right-hand sides in, solutions out
+            integer, intent(out) :: info        !! 0 or -i for a bad argument i
+        end subroutine dgetrs
+    end interface
 
 contains
 
@@ -107,5 +140,67 @@ contains
             end do
         end do
     end subroutine lu_solve
+
+    !> Relative pivot threshold of the real64 factorisation: n * epsilon(1.0_dp).
+    pure real(dp) function default_pivot_tolerance_dp(n)
+        integer, intent(in) :: n !! matrix order
+        default_pivot_tolerance_dp = max(n, 1) * epsilon(1.0_dp)
+    end function default_pivot_tolerance_dp
+
+    !> LU factorisation of a real64 matrix with LAPACK's dgetrf, with the same contract as
+    !! `lu_factor`: `info` 0 success, -1 not square, -2 `pivots` too short, k > 0 when the
+    !! k-th pivot is at most `tolerance * max|A|` (default n * epsilon(1.0_dp)).
+    subroutine lu_factor_dp(a, pivots, info, tolerance, pivot_ratio)
+        real(dp), intent(inout), contiguous :: a(:, :) !! A (n x n) in, LAPACK factors out
+        integer, intent(out) :: pivots(:)   !! row interchanges (LAPACK ipiv)
+        integer, intent(out) :: info        !! 0, a negative argument index, or the singular step
+        real(dp), intent(in), optional :: tolerance    !! relative pivot threshold
+        real(dp), intent(out), optional :: pivot_ratio !! min |pivot| / max|A| (0 when singular)
+        integer :: n, k, lapack_info
+        real(dp) :: scale, threshold, smallest
+
+        n = size(a, 1)
+        info = 0
+        if (present(pivot_ratio)) pivot_ratio = 0
+        if (size(a, 2) /= n) then
+            info = -1
+            return
+        end if
+        if (size(pivots) < n) then
+            info = -2
+            return
+        end if
+        if (n == 0) then
+            if (present(pivot_ratio)) pivot_ratio = 1
+            return
+        end if
+        scale = maxval(abs(a))
+        if (present(tolerance)) then
+            threshold = tolerance * scale
+        else
+            threshold = default_pivot_tolerance_dp(n) * scale
+        end if
+        call dgetrf(n, n, a, size(a, 1), pivots, lapack_info)
+        smallest = huge(1.0_dp)
+        do k = 1, n
+            ! Also catches scale == 0, LAPACK's exact zero pivots and NaN entries.
+            if (.not. (abs(a(k, k)) > threshold)) then
+                info = k
+                return
+            end if
+            smallest = min(smallest, abs(a(k, k)))
+        end do
+        if (present(pivot_ratio)) pivot_ratio = smallest / scale
+    end subroutine lu_factor_dp
+
+    !> Solve A x = b with the factors from `lu_factor_dp`; `b` (n x nrhs) is overwritten.
+    subroutine lu_solve_dp(lu, pivots, b)
+        real(dp), intent(in), contiguous :: lu(:, :)   !! factors from lu_factor_dp (n x n)
+        integer, intent(in) :: pivots(:)    !! interchanges from lu_factor_dp
+        real(dp), intent(inout), contiguous :: b(:, :) !! right-hand sides in, solutions out
+        integer :: info
+        if (size(lu, 1) == 0) return
+        call dgetrs("N", size(lu, 1), size(b, 2), lu, size(lu, 1), pivots, b, size(b, 1), info)
+    end subroutine lu_solve_dp
 
 end module holosym_linalg

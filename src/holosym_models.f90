@@ -1,5 +1,6 @@
 !> The paper's example systems (method.md section 5) and the planar pendulum, each
-!! defined by H, its gradients, phi and Phi only.
+!! defined by H, its gradients, phi and Phi, and the exact second derivatives of H and
+!! phi (which an integrator may ignore and difference instead: `hessians = 'differences'`).
 module holosym_models
     use holosym_kinds, only: wp
     use holosym_problem, only: constrained_hamiltonian
@@ -19,6 +20,10 @@ module holosym_models
         procedure :: dh_dp => sphere_dh_dp
         procedure :: constraint => sphere_constraint
         procedure :: constraint_jacobian => sphere_constraint_jacobian
+        !> Exact second derivatives of H.
+        procedure :: hessian => sphere_hessian
+        !> Exact second derivatives of phi.
+        procedure :: constraint_hessian => sphere_constraint_hessian
         !> The paper's initial state q = (0, sqrt2/2, sqrt2/2), p = (0.6, 0, 0).
         procedure, nopass :: initial_state => sphere_initial_state
     end type spherical_pendulum
@@ -43,6 +48,10 @@ module holosym_models
         procedure :: dh_dp => linkage_dh_dp
         procedure :: constraint => linkage_constraint
         procedure :: constraint_jacobian => linkage_constraint_jacobian
+        !> Exact second derivatives of H.
+        procedure :: hessian => linkage_hessian
+        !> Exact second derivatives of phi.
+        procedure :: constraint_hessian => linkage_constraint_hessian
         !> The paper's initial state q = (-0.1, 0, 0.7, 0, -0.3, 0.5), p = (0, .05, 0, -.05, 0, 0).
         procedure, nopass :: initial_state => linkage_initial_state
     end type spring_linkage
@@ -59,6 +68,10 @@ module holosym_models
         procedure :: dh_dp => planar_dh_dp
         procedure :: constraint => planar_constraint
         procedure :: constraint_jacobian => planar_constraint_jacobian
+        !> Exact second derivatives of H.
+        procedure :: hessian => planar_hessian
+        !> Exact second derivatives of phi.
+        procedure :: constraint_hessian => planar_constraint_hessian
         !> q = (sin 1, -cos 1), p = 0.
         procedure, nopass :: initial_state => planar_initial_state
     end type planar_pendulum
@@ -117,6 +130,31 @@ contains
         real(wp), intent(out) :: jacobian(:, :)
         jacobian(1, :) = 2 * q
     end subroutine sphere_constraint_jacobian
+
+    subroutine sphere_hessian(self, q, p, hqq, hqp, hpp)
+        class(spherical_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: hqq(:, :), hqp(:, :), hpp(:, :)
+        integer :: i
+        hqq = 0
+        hqq(3, 3) = self%mass * sin(q(3))
+        hqp = 0
+        hpp = 0
+        do i = 1, 3
+            hpp(i, i) = 1 / self%mass
+        end do
+    end subroutine sphere_hessian
+
+    subroutine sphere_constraint_hessian(self, q, hessian)
+        class(spherical_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: hessian(:, :, :)
+        integer :: i
+        hessian = 0
+        do i = 1, 3
+            hessian(i, i, 1) = 2
+        end do
+    end subroutine sphere_constraint_hessian
 
     pure subroutine sphere_initial_state(q, p)
         real(wp), intent(out) :: q(:) !! (0, sqrt(2)/2, sqrt(2)/2)
@@ -193,6 +231,49 @@ contains
         jacobian(3, 4) = 2 * (q(4) - q(2))
     end subroutine linkage_constraint_jacobian
 
+    subroutine linkage_hessian(self, q, p, hqq, hqp, hpp)
+        class(spring_linkage), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: hqq(:, :), hqp(:, :), hpp(:, :)
+        integer :: i
+        hqq = 0
+        hqq(5, 5) = self%stiffness
+        hqq(6, 6) = self%stiffness
+        hqp = 0
+        hpp = 0
+        do i = 1, 4
+            hpp(i, i) = 1 / self%ball_mass
+        end do
+        hpp(5, 5) = 1 / self%track_mass
+        hpp(6, 6) = 1 / self%track_mass
+    end subroutine linkage_hessian
+
+    subroutine linkage_constraint_hessian(self, q, hessian)
+        class(spring_linkage), intent(in) :: self
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: hessian(:, :, :)
+        hessian = 0
+        ! phi1 = (x1 - s1)^2 + y1^2: coordinates 1, 2, 5.
+        call difference_square(hessian(:, :, 1), 1, 5)
+        hessian(2, 2, 1) = 2
+        ! phi2 = (x2 - s2)^2 + y2^2: coordinates 3, 4, 6.
+        call difference_square(hessian(:, :, 2), 3, 6)
+        hessian(4, 4, 2) = 2
+        ! phi3 = (x2 - x1)^2 + (y2 - y1)^2.
+        call difference_square(hessian(:, :, 3), 1, 3)
+        call difference_square(hessian(:, :, 3), 2, 4)
+    contains
+        !> Add the Hessian of (q_i - q_k)^2.
+        pure subroutine difference_square(block, i, k)
+            real(wp), intent(inout) :: block(:, :)
+            integer, intent(in) :: i, k
+            block(i, i) = block(i, i) + 2
+            block(k, k) = block(k, k) + 2
+            block(i, k) = block(i, k) - 2
+            block(k, i) = block(k, i) - 2
+        end subroutine difference_square
+    end subroutine linkage_constraint_hessian
+
     pure subroutine linkage_initial_state(q, p)
         real(wp), intent(out) :: q(:) !! (-0.1, 0, 0.7, 0, -0.3, 0.5)
         real(wp), intent(out) :: p(:) !! (0, 0.05, 0, -0.05, 0, 0)
@@ -220,7 +301,8 @@ contains
         class(planar_pendulum), intent(in) :: self
         real(wp), intent(in) :: q(:), p(:)
         real(wp), intent(out) :: gradient(:)
-        gradient = [0.0_wp, 1.0_wp]
+        gradient(1) = 0
+        gradient(2) = 1
     end subroutine planar_dh_dq
 
     subroutine planar_dh_dp(self, q, p, gradient)
@@ -243,6 +325,26 @@ contains
         real(wp), intent(out) :: jacobian(:, :)
         jacobian(1, :) = 2 * q
     end subroutine planar_constraint_jacobian
+
+    subroutine planar_hessian(self, q, p, hqq, hqp, hpp)
+        class(planar_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: hqq(:, :), hqp(:, :), hpp(:, :)
+        hqq = 0
+        hqp = 0
+        hpp = 0
+        hpp(1, 1) = 1
+        hpp(2, 2) = 1
+    end subroutine planar_hessian
+
+    subroutine planar_constraint_hessian(self, q, hessian)
+        class(planar_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: hessian(:, :, :)
+        hessian = 0
+        hessian(1, 1, 1) = 2
+        hessian(2, 2, 1) = 2
+    end subroutine planar_constraint_hessian
 
     pure subroutine planar_initial_state(q, p)
         real(wp), intent(out) :: q(:) !! (sin 1, -cos 1)

@@ -6,9 +6,20 @@
 !! estimated from the contraction rate (theta/(1-theta) |dx|), falls below
 !! `settings%tolerance`; or the correction stops decreasing once below
 !! `settings%stagnation_level` (the round-off floor of the problem has been reached).
+!!
+!! Two options make it cheaper without changing the solution (the residual is always
+!! evaluated in working precision and iterated to the same tolerance):
+!! - `settings%simplified`: keep the factorised Jacobian across iterations and, with a
+!!   `newton_workspace_t`, across solves, while the corrections contract by at least
+!!   `settings%contraction_limit` per iteration; refactor at the current iterate when not.
+!! - a workspace with `linear_solver = LINEAR_SOLVER_MIXED`: factor the (row-equilibrated)
+!!   Jacobian in real64 with LAPACK dgetrf and solve with dgetrs, i.e. iterative refinement
+!!   of the real128 residual. A Jacobian that is singular to real64 precision but not to
+!!   working precision falls back to the working-precision LU.
 module holosym_newton
-    use holosym_kinds, only: wp
-    use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance
+    use holosym_kinds, only: wp, dp
+    use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
+        lu_solve_dp, default_pivot_tolerance_dp
     use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SINGULAR_MATRIX, &
         HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE
@@ -16,8 +27,22 @@ module holosym_newton
     private
 
     public :: nonlinear_system, newton_settings_t, newton_report_t, newton_solve
+    public :: newton_workspace_t, all_finite, all_finite_matrix
+
+    !> Factor the Newton Jacobian in working precision with `lu_factor` (default).
+    integer, parameter, public :: LINEAR_SOLVER_NATIVE = 1
+    !> Factor it in real64 with LAPACK dgetrf/dgetrs; residuals stay in working precision.
+    integer, parameter, public :: LINEAR_SOLVER_MIXED = 2
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
+    !> A freshly factorised real64 Jacobian that contracts worse than this is replaced by
+    !! a working-precision factorisation (the matrix is too ill-conditioned for real64).
+    real(wp), parameter :: mixed_rate_limit = 0.5_wp
+    !> ... judged from this iteration on (earlier rates may reflect a far first guess).
+    integer, parameter :: mixed_rate_iteration = 3
+    !> Simplified Newton: after kept factors proved too stale, later solves refactor at
+    !! their first iterate; every this many solves the kept factors are tried again.
+    integer, parameter :: retry_reuse_every = 8
 
     !> A square nonlinear system: extend it and implement `residual` and `jacobian`.
     type, abstract :: nonlinear_system
@@ -40,11 +65,17 @@ module holosym_newton
         integer :: max_growth = 3
         !> Relative pivot threshold of the LU; <= 0 means `default_pivot_tolerance(n)`.
         real(wp) :: pivot_tolerance = 0
+        !> Simplified Newton: reuse the factorised Jacobian (across solves too, when a
+        !! workspace is given) while the corrections contract well.
+        logical :: simplified = .false.
+        !> Simplified Newton refactors at the current iterate when a correction is larger
+        !! than this fraction of the previous one.
+        real(wp) :: contraction_limit = 0.05_wp
     end type newton_settings_t
 
     !> What happened in one Newton solve.
     type :: newton_report_t
-        !> Number of iterations (= Jacobian factorisations and solves).
+        !> Number of iterations (residual evaluations and solves).
         integer :: iterations = 0
         !> Scaled size of the last correction.
         real(wp) :: last_correction = 0
@@ -52,7 +83,46 @@ module holosym_newton
         real(wp) :: pivot_ratio = 0
         !> Index of the failing pivot when the Jacobian was singular, else 0.
         integer :: singular_pivot = 0
+        !> Jacobian evaluations and LU factorisations of this solve.
+        integer :: factorizations = 0
+        !> Residual evaluations of this solve (= iterations).
+        integer :: residual_evaluations = 0
+        !> True when the solve started with the factors of an earlier solve.
+        logical :: reused_factors = .false.
     end type newton_report_t
+
+    !> Preallocated arrays of Newton's method and the factors kept between solves.
+    !! Give one to `newton_solve` to avoid allocation and to let simplified Newton reuse
+    !! a factorisation across solves. Call `invalidate` when the equations change
+    !! substantially (e.g. a new step size).
+    type :: newton_workspace_t
+        !> LINEAR_SOLVER_NATIVE or LINEAR_SOLVER_MIXED.
+        integer :: linear_solver = LINEAR_SOLVER_NATIVE
+        !> Size the arrays are allocated for (-1: none).
+        integer :: nx = -1
+        !> True when `jac`/`jac_dp` hold valid factors.
+        logical :: factored = .false.
+        !> True when the valid factors are the real64 ones.
+        logical :: factors_in_dp = .false.
+        !> Pivot ratio of the valid factors.
+        real(wp) :: factor_pivot_ratio = 0
+        !> Kept factors were too stale last time: refactor at the first iterate.
+        logical :: prefer_fresh = .false.
+        !> Solves since kept factors were last tried.
+        integer :: fresh_streak = 0
+        real(wp), allocatable :: jac(:, :)     !! Jacobian, then its working-precision factors
+        real(wp), allocatable :: rhs(:, :)     !! residual, then the correction (nx x 1)
+        real(wp), allocatable :: guess(:)      !! the first guess, restored on failure
+        real(wp), allocatable :: row_scale(:)  !! row equilibration of the factors
+        real(dp), allocatable :: jac_dp(:, :)  !! real64 factors (mixed precision)
+        real(dp), allocatable :: rhs_dp(:, :)  !! real64 right-hand side
+        integer, allocatable :: pivots(:)      !! row interchanges
+    contains
+        !> Allocate for nx unknowns (no-op when already that size).
+        procedure :: setup => workspace_setup
+        !> Forget the kept factors.
+        procedure :: invalidate => workspace_invalidate
+    end type newton_workspace_t
 
     abstract interface
         subroutine residual_interface(self, x, f, status)
@@ -74,74 +144,162 @@ module holosym_newton
 
 contains
 
+    !> Allocate the workspace for nx unknowns; keeps the factors when the size is unchanged.
+    subroutine workspace_setup(self, nx)
+        class(newton_workspace_t), intent(inout) :: self
+        integer, intent(in) :: nx !! number of unknowns
+        if (self%nx == nx) return
+        if (allocated(self%jac)) deallocate (self%jac, self%rhs, self%guess, self%row_scale, &
+                                             self%jac_dp, self%rhs_dp, self%pivots)
+        allocate (self%jac(nx, nx), self%rhs(nx, 1), self%guess(nx), self%row_scale(nx), &
+                  self%jac_dp(nx, nx), self%rhs_dp(nx, 1), self%pivots(nx))
+        self%nx = nx
+        self%factored = .false.
+    end subroutine workspace_setup
+
+    !> Forget the kept factors: the next solve starts with a new Jacobian.
+    elemental subroutine workspace_invalidate(self)
+        class(newton_workspace_t), intent(inout) :: self
+        self%factored = .false.
+    end subroutine workspace_invalidate
+
     !> Solve F(x) = 0 by Newton's method from the first guess in `x`.
     !!
     !! Codes: HOLOSYM_SINGULAR_MATRIX (a pivot below threshold; `report%singular_pivot`
     !! says which), HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED,
-    !! HOLOSYM_NONFINITE_VALUE, or a code passed on from the system's evaluations.
-    !! On failure `x` holds the first guess again.
-    subroutine newton_solve(system, x, settings, scale, report, status)
+    !! HOLOSYM_NONFINITE_VALUE, HOLOSYM_INVALID_ARGUMENT (max_iterations < 1), or a code
+    !! passed on from the system's evaluations. On failure `x` holds the first guess again
+    !! and the workspace keeps no factors.
+    subroutine newton_solve(system, x, settings, scale, report, status, workspace)
         class(nonlinear_system), intent(inout) :: system !! the equations
         real(wp), intent(inout) :: x(:)                 !! first guess in, solution out
         type(newton_settings_t), intent(in) :: settings !! tolerances and limits
         real(wp), intent(in) :: scale     !! typical magnitude of x (absolute floor of the test)
         type(newton_report_t), intent(out) :: report    !! iterations and diagnostics
         type(holosym_status_t), intent(out), optional :: status !! outcome
-        real(wp) :: jac(size(x), size(x)), rhs(size(x), 1), guess(size(x)), row_scale(size(x))
-        real(wp) :: correction, previous, tolerance, pivot_ratio, rate
-        integer :: pivots(size(x)), info, iter, growth, nx, i
+        !> Preallocated arrays, linear solver choice and kept factors (default: a fresh
+        !! working-precision workspace for this call).
+        type(newton_workspace_t), intent(inout), optional :: workspace
+        type(newton_workspace_t) :: local
+
+        if (present(workspace)) then
+            call solve_core(system, x, settings, scale, report, workspace, status)
+        else
+            call solve_core(system, x, settings, scale, report, local, status)
+        end if
+    end subroutine newton_solve
+
+    !> The iteration of `newton_solve` on a given workspace.
+    subroutine solve_core(system, x, settings, scale, report, ws, status)
+        class(nonlinear_system), intent(inout) :: system
+        real(wp), intent(inout) :: x(:)
+        type(newton_settings_t), intent(in) :: settings
+        real(wp), intent(in) :: scale
+        type(newton_report_t), intent(out) :: report
+        type(newton_workspace_t), intent(inout) :: ws
+        type(holosym_status_t), intent(inout), optional :: status
+        real(wp) :: correction, previous, tolerance, pivot_ratio, rate, row_max
+        real(dp) :: pivot_ratio_dp
+        integer :: info, iter, growth, nx, i
+        logical :: plain, refactor, fresh, native_only
         type(holosym_status_t) :: eval_status
 
         nx = size(x)
-        guess = x
         if (settings%max_iterations < 1) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "max_iterations must be >= 1, got " &
                 // int_str(settings%max_iterations))
             return
         end if
+        call ws%setup(nx)
+        ws%guess = x
         previous = huge(1.0_wp)
         growth = 0
         report%pivot_ratio = huge(1.0_wp)
         tolerance = settings%pivot_tolerance
         if (tolerance <= 0) tolerance = default_pivot_tolerance(nx)
+        ! The original full Newton in working precision keeps its exact behaviour.
+        plain = .not. settings%simplified .and. ws%linear_solver == LINEAR_SOLVER_NATIVE
+        native_only = ws%linear_solver == LINEAR_SOLVER_NATIVE
+        refactor = .not. (settings%simplified .and. ws%factored)
+        if (.not. refactor .and. ws%prefer_fresh) then
+            ! Factors kept from the last solve were too stale then; a Jacobian at the
+            ! first iterate saves iterations (retry the kept ones now and then).
+            ws%fresh_streak = ws%fresh_streak + 1
+            refactor = ws%fresh_streak < retry_reuse_every
+            if (.not. refactor) ws%fresh_streak = 0
+        end if
+        report%reused_factors = .not. refactor
+        if (report%reused_factors) report%pivot_ratio = ws%factor_pivot_ratio
         do iter = 1, settings%max_iterations
             report%iterations = iter
-            call system%residual(x, rhs(:, 1), eval_status)
+            report%residual_evaluations = iter
+            call system%residual(x, ws%rhs(:, 1), eval_status)
             if (.not. eval_status%ok()) then
                 call fail(eval_status%code, eval_status%message)
                 return
             end if
-            call system%jacobian(x, jac, eval_status)
-            if (.not. eval_status%ok()) then
-                call fail(eval_status%code, eval_status%message)
-                return
-            end if
-            if (.not. all(is_finite(rhs)) .or. .not. all(is_finite(jac))) then
-                call fail(HOLOSYM_NONFINITE_VALUE, "non-finite residual or Jacobian at Newton " &
-                    // "iteration " // int_str(iter))
-                return
-            end if
-            ! Row equilibration makes the pivot test independent of the equations' units.
-            do i = 1, nx
-                row_scale(i) = maxval(abs(jac(i, :)))
-                if (row_scale(i) > 0) then
-                    jac(i, :) = jac(i, :) / row_scale(i)
-                    rhs(i, 1) = rhs(i, 1) / row_scale(i)
+            fresh = refactor .or. .not. settings%simplified
+            if (fresh) then
+                call system%jacobian(x, ws%jac, eval_status)
+                if (.not. eval_status%ok()) then
+                    call fail(eval_status%code, eval_status%message)
+                    return
                 end if
-            end do
-            call lu_factor(jac, pivots, info, tolerance, pivot_ratio)
-            if (info /= 0) then
-                report%singular_pivot = info
-                report%pivot_ratio = 0
-                call fail(HOLOSYM_SINGULAR_MATRIX, "Newton Jacobian singular at pivot " // &
-                    int_str(info) // " of " // int_str(nx) // " (relative threshold " // &
-                    real_str(tolerance) // ")")
+                if (.not. all_finite(ws%rhs(:, 1)) .or. .not. all_finite_matrix(ws%jac)) then
+                    call fail(HOLOSYM_NONFINITE_VALUE, "non-finite residual or Jacobian at " &
+                        // "Newton iteration " // int_str(iter))
+                    return
+                end if
+                ! Row equilibration makes the pivot test independent of the equations' units;
+                ! scaling by powers of two is exact and needs no division.
+                do i = 1, nx
+                    row_max = maxval(abs(ws%jac(i, :)))
+                    if (row_max > 0) then
+                        ws%row_scale(i) = set_exponent(1.0_wp, 1 - exponent(row_max))
+                        ws%jac(i, :) = ws%jac(i, :) * ws%row_scale(i)
+                    else
+                        ws%row_scale(i) = 1
+                    end if
+                end do
+                report%factorizations = report%factorizations + 1
+                info = 1
+                ws%factors_in_dp = .false.
+                if (.not. native_only) then
+                    ws%jac_dp = real(ws%jac, dp)
+                    call lu_factor_dp(ws%jac_dp, ws%pivots, info, &
+                        max(real(tolerance, dp), default_pivot_tolerance_dp(nx)), pivot_ratio_dp)
+                    ws%factors_in_dp = info == 0
+                    pivot_ratio = real(pivot_ratio_dp, wp)
+                end if
+                ! Working precision: the plain path, or a matrix singular to real64.
+                if (info /= 0) call lu_factor(ws%jac, ws%pivots, info, tolerance, pivot_ratio)
+                if (info /= 0) then
+                    report%singular_pivot = info
+                    report%pivot_ratio = 0
+                    call fail(HOLOSYM_SINGULAR_MATRIX, "Newton Jacobian singular at pivot " // &
+                        int_str(info) // " of " // int_str(nx) // " (relative threshold " // &
+                        real_str(tolerance) // ")")
+                    return
+                end if
+                ws%factored = .true.
+                ws%factor_pivot_ratio = pivot_ratio
+                report%pivot_ratio = min(report%pivot_ratio, pivot_ratio)
+                refactor = .false.
+            else if (.not. all_finite(ws%rhs(:, 1))) then
+                call fail(HOLOSYM_NONFINITE_VALUE, "non-finite residual at Newton iteration " &
+                    // int_str(iter))
                 return
             end if
-            report%pivot_ratio = min(report%pivot_ratio, pivot_ratio)
-            call lu_solve(jac, pivots, rhs)
-            x = x - rhs(:, 1)
-            correction = maxval(abs(rhs(:, 1))) / max(scale, maxval(abs(x)))
+            ws%rhs(:, 1) = ws%rhs(:, 1) * ws%row_scale
+            if (ws%factors_in_dp) then
+                ws%rhs_dp = real(ws%rhs, dp)
+                call lu_solve_dp(ws%jac_dp, ws%pivots, ws%rhs_dp)
+                ws%rhs = real(ws%rhs_dp, wp)
+            else
+                call lu_solve(ws%jac, ws%pivots, ws%rhs)
+            end if
+            x = x - ws%rhs(:, 1)
+            correction = maxval(abs(ws%rhs(:, 1))) / max(scale, maxval(abs(x)))
             report%last_correction = correction
             if (.not. is_finite(correction)) then
                 call fail(HOLOSYM_NEWTON_DIVERGED, "Newton correction not finite at " // &
@@ -154,17 +312,30 @@ contains
             if (iter > 1 .and. rate < 1) then
                 if (rate / (1 - rate) * correction <= settings%tolerance) exit
             end if
-            if (correction >= previous .and. correction <= settings%stagnation_level) exit
-            if (correction > previous .and. correction > settings%stagnation_level) then
-                growth = growth + 1
-                if (growth >= settings%max_growth) then
-                    call fail(HOLOSYM_NEWTON_DIVERGED, "Newton corrections grew " // &
-                        int_str(growth) // " times in a row (last " // real_str(correction) // &
-                        ") at iteration " // int_str(iter))
-                    return
+            if (plain .or. fresh) then
+                if (correction >= previous .and. correction <= settings%stagnation_level) exit
+                if (correction > previous .and. correction > settings%stagnation_level) then
+                    growth = growth + 1
+                    if (growth >= settings%max_growth) then
+                        call fail(HOLOSYM_NEWTON_DIVERGED, "Newton corrections grew " // &
+                            int_str(growth) // " times in a row (last " // &
+                            real_str(correction) // ") at iteration " // int_str(iter))
+                        return
+                    end if
+                else
+                    growth = 0
                 end if
-            else
-                growth = 0
+                ! A fresh real64 factorisation that contracts poorly: the matrix is too
+                ! ill-conditioned for real64; continue in working precision.
+                if (ws%factors_in_dp .and. iter >= mixed_rate_iteration .and. &
+                    rate > mixed_rate_limit) then
+                    native_only = .true.
+                    refactor = .true.
+                end if
+            else if (iter > 1 .and. rate > settings%contraction_limit) then
+                ! Stale factors (simplified Newton) that contract poorly: refactor here.
+                refactor = .true.
+                if (report%reused_factors) ws%prefer_fresh = .true.
             end if
             if (iter == settings%max_iterations) then
                 call fail(HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged after " // &
@@ -173,6 +344,8 @@ contains
             end if
             previous = correction
         end do
+        ! Kept factors that needed no refresh remain the first choice.
+        if (report%reused_factors .and. report%factorizations == 0) ws%prefer_fresh = .false.
         call set_status(status, HOLOSYM_SUCCESS, "")
 
     contains
@@ -180,10 +353,37 @@ contains
         subroutine fail(code, message)
             integer, intent(in) :: code
             character(len=*), intent(in) :: message
-            x = guess
+            x = ws%guess
+            ws%factored = .false.
             call set_status(status, code, message)
         end subroutine fail
 
-    end subroutine newton_solve
+    end subroutine solve_core
+
+    !> True when no entry is NaN or infinite (a comparison; no IEEE state handling).
+    pure logical function all_finite(values)
+        real(wp), intent(in) :: values(:) !! values to test
+        integer :: i
+        all_finite = .true.
+        do i = 1, size(values)
+            if (.not. abs(values(i)) <= huge(1.0_wp)) then
+                all_finite = .false.
+                return
+            end if
+        end do
+    end function all_finite
+
+    !> `all_finite` for a matrix.
+    pure logical function all_finite_matrix(values)
+        real(wp), intent(in) :: values(:, :) !! values to test
+        integer :: j
+        all_finite_matrix = .true.
+        do j = 1, size(values, 2)
+            if (.not. all_finite(values(:, j))) then
+                all_finite_matrix = .false.
+                return
+            end if
+        end do
+    end function all_finite_matrix
 
 end module holosym_newton

@@ -14,7 +14,7 @@ module holosym_problem
     implicit none
     private
 
-    public :: constrained_hamiltonian
+    public :: constrained_hamiltonian, difference_hessian, difference_constraint_hessian
 
     !> Relative step of the default central differences: epsilon**(1/3) balances
     !! truncation (step**2) against round-off (epsilon/step).
@@ -83,7 +83,8 @@ contains
 
     !> Default second derivatives of H by central differences of `dh_dq` and `dh_dp`:
     !! `hqq(i,k) = d2H/dq_i dq_k`, `hqp(i,k) = d2H/dq_i dp_k`, `hpp(i,k) = d2H/dp_i dp_k`.
-    !! Override it with exact derivatives for speed (4n gradient pairs are saved per call).
+    !! Override it with exact derivatives for speed (6n gradient calls are saved per call).
+    !! Public so that an integrator can ignore a user's `hessian` (for comparisons).
     subroutine difference_hessian(self, q, p, hqq, hqp, hpp)
         class(constrained_hamiltonian), intent(in) :: self !! the system
         real(wp), intent(in) :: q(:)        !! coordinates (n)
@@ -125,7 +126,7 @@ contains
     end subroutine difference_hessian
 
     !> Default second derivatives of the constraints by central differences of
-    !! `constraint_jacobian`: `hessian(i, k, l) = d2 phi_l / dq_i dq_k`.
+    !! `constraint_jacobian`: `hessian(i, k, l) = d2 phi_l / dq_i dq_k` (2n Jacobian calls).
     subroutine difference_constraint_hessian(self, q, hessian)
         class(constrained_hamiltonian), intent(in) :: self !! the system
         real(wp), intent(in) :: q(:)              !! coordinates (n)

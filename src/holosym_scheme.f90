@@ -7,18 +7,51 @@
 !! Equations (rows, in order): R_p,j (j = 0..N); D_i (i = 1..M-1); p_a + D_0;
 !! phi(q_i) (i = 1..M); Phi(q_M) H_p(q_M, D_M), where
 !!   D_i = sum_g w_g [A_gi P_g - h B_gi H_q(Q_g, P_g)] - wl_i Phi(q_i)^T mu_i.
+!!
+!! Speed: the quadrature sums that do not involve the user's functions are precomputed
+!! (e.g. sum_g w_g C_gj V_g = sum_k SCA(j,k) z_k), all workspace is allocated by `init`
+!! (no allocation in `residual` or `jacobian`), and the Jacobian assembly skips Hessian
+!! entries that are zero at every Gauss point and sums constant ones once.
 module holosym_scheme
+    use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, is_finite, &
+    use holosym_status, only: holosym_status_t, set_status, int_str, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_NONFINITE_VALUE
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_matrices
-    use holosym_problem, only: constrained_hamiltonian
-    use holosym_newton, only: nonlinear_system
+    use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
+        difference_constraint_hessian
+    use holosym_newton, only: nonlinear_system, all_finite, all_finite_matrix
     implicit none
     private
 
     public :: discrete_scheme, unknown_count
+
+    !> Jacobian assembled from the second derivatives of H and phi (default).
+    integer, parameter, public :: JACOBIAN_ASSEMBLED = 1
+    !> Jacobian by central differences of the whole residual (2 nx residuals per Jacobian).
+    integer, parameter, public :: JACOBIAN_RESIDUAL_DIFFERENCES = 2
+    !> Second derivatives from the system's `hessian`/`constraint_hessian` bindings (default).
+    integer, parameter, public :: HESSIANS_USER = 1
+    !> Second derivatives by central differences of the gradients, ignoring the bindings.
+    integer, parameter, public :: HESSIANS_DIFFERENCES = 2
+
+    !> Relative step of the residual differences: epsilon**(1/3).
+    real(wp), parameter :: residual_step = epsilon(1.0_wp)**(1.0_wp / 3)
+    !> Pattern of a Hessian entry over the Gauss points.
+    integer, parameter :: entry_zero = 0, entry_constant = 1, entry_varying = 2
+
+    !> Counts of the user-function calls made by a scheme (cumulative since `init`).
+    type, public :: scheme_counters_t
+        !> Residual evaluations (including those of residual-difference Jacobians).
+        integer(int64) :: residuals = 0
+        !> Jacobian evaluations.
+        integer(int64) :: jacobians = 0
+        !> Calls of dh_dq or dh_dp (each counts one; difference Hessians add 6n per call).
+        integer(int64) :: gradients = 0
+        !> Calls of hessian or constraint_hessian (user's or differences).
+        integer(int64) :: hessians = 0
+    end type scheme_counters_t
 
     !> The scheme for one (M, N, G) and one problem size (n, m), with its workspace.
     !! Before a Newton solve, `set_step` binds the system, the start state and h.
@@ -29,6 +62,12 @@ module holosym_scheme
         integer :: n = 0             !! coordinates
         integer :: m = 0             !! constraints
         integer :: nx = 0            !! unknowns = equations
+        !> How the Jacobian is formed: JACOBIAN_ASSEMBLED or JACOBIAN_RESIDUAL_DIFFERENCES.
+        integer :: jacobian_mode = JACOBIAN_ASSEMBLED
+        !> Where second derivatives come from: HESSIANS_USER or HESSIANS_DIFFERENCES.
+        integer :: hessian_mode = HESSIANS_USER
+        !> Calls made so far.
+        type(scheme_counters_t) :: counters
         real(wp), allocatable :: disp_nodes(:)      !! d_0..d_M, Lobatto points
         real(wp), allocatable :: lobatto_weights(:) !! wl_0..wl_M
         real(wp), allocatable :: mom_nodes(:)       !! c_0..c_N
@@ -37,6 +76,19 @@ module holosym_scheme
         real(wp), allocatable :: b(:, :)  !! B(g, i) = rho_i(tau_g), G x (0:M)
         real(wp), allocatable :: a(:, :)  !! A(g, i) = rho_i'(tau_g), G x (0:M)
         real(wp), allocatable :: c(:, :)  !! C(g, j) = chi_j(tau_g), G x (0:N)
+        ! Precomputed quadrature sums.
+        real(wp), allocatable, private :: sum_a(:)      ! (0:M) sum_g w_g A_gi
+        real(wp), allocatable, private :: sca(:, :)     ! (0:N, 1:M) sum_g w_g C_gj A_gk
+        real(wp), allocatable, private :: scb(:, :)     ! (0:N, 1:M) sum_g w_g C_gj B_gk
+        real(wp), allocatable, private :: scc(:, :)     ! (0:N, 0:N) sum_g w_g C_gj C_gl
+        real(wp), allocatable, private :: sac(:, :)     ! (0:M, 0:N) sum_g w_g A_gi C_gl
+        real(wp), allocatable, private :: sbb(:, :)     ! (0:M, 1:M) sum_g w_g B_gi B_gk
+        real(wp), allocatable, private :: sbc(:, :)     ! (0:M, 0:N) sum_g w_g B_gi C_gl
+        real(wp), allocatable, private :: wb(:, :)      ! (G, 0:M) w_g B_gi
+        real(wp), allocatable, private :: wc(:, :)      ! (G, 0:N) w_g C_gj
+        ! Extrapolation to the next step of equal size: rho_i(1 + d_k), chi_j(1 + c_l).
+        real(wp), allocatable, private :: extrap_q(:, :) ! (0:M node k, 0:M basis i)
+        real(wp), allocatable, private :: extrap_p(:, :) ! (0:N node l, 0:N basis j)
         ! Step context (valid during one solve).
         class(constrained_hamiltonian), pointer, private :: sys => null()
         real(wp), allocatable, private :: qa(:), pa(:)
@@ -46,12 +98,22 @@ module holosym_scheme
         logical, private :: cache_valid = .false.
         real(wp), allocatable, private :: q_nodes(:, :)      ! n x (0:M)
         real(wp), allocatable, private :: q_gauss(:, :)      ! n x G
-        real(wp), allocatable, private :: v_gauss(:, :)      ! n x G
         real(wp), allocatable, private :: p_gauss(:, :)      ! n x G
         real(wp), allocatable, private :: hq_gauss(:, :)     ! n x G
         real(wp), allocatable, private :: hp_gauss(:, :)     ! n x G
         real(wp), allocatable, private :: phi_jac(:, :, :)   ! m x n x (0:M)
         real(wp), allocatable, private :: d_values(:, :)     ! n x (0:M)
+        real(wp), allocatable, private :: velocity(:)        ! n
+        real(wp), allocatable, private :: q_work(:), phi_work(:) ! n, m
+        ! Jacobian workspace.
+        real(wp), allocatable, private :: hqq(:, :, :), hqp(:, :, :), hpp(:, :, :) ! n x n x G
+        real(wp), allocatable, private :: phi_hess(:, :, :, :)  ! n x n x m x (1:M)
+        real(wp), allocatable, private :: end_hqq(:, :), end_hqp(:, :), end_hpp(:, :)
+        real(wp), allocatable, private :: d_block(:, :)     ! n x nx: dD_M/dx
+        real(wp), allocatable, private :: end_product(:, :) ! m x n: Phi_M hpp_end
+        real(wp), allocatable, private :: weights(:)        ! G
+        integer, allocatable, private :: pattern_qq(:, :), pattern_qp(:, :), pattern_pp(:, :)
+        real(wp), allocatable, private :: x_work(:), f_plus(:), f_minus(:) ! nx
     contains
         !> Set up the scheme for (M, N, G) and sizes (n, m).
         procedure :: init => scheme_init
@@ -95,6 +157,7 @@ contains
         integer, intent(in) :: m            !! constraints, 0 <= m < n
         type(holosym_status_t), intent(out), optional :: status !! outcome
         real(wp), allocatable :: unused(:, :), mom_weights(:)
+        integer :: g, i, j, k
 
         if (order_m < 1 .or. order_n < 0 .or. gauss_points < 1) then
             call set_status(status, HOLOSYM_INVALID_ORDER, "need M >= 1, N >= 0, G >= 1; got M = " &
@@ -114,6 +177,7 @@ contains
         self%n = n
         self%m = m
         self%nx = unknown_count(order_m, order_n, n, m)
+        self%counters = scheme_counters_t()
 
         allocate (self%disp_nodes(0:order_m), self%lobatto_weights(0:order_m))
         call gauss_lobatto(self%disp_nodes, self%lobatto_weights)
@@ -132,11 +196,64 @@ contains
         call lagrange_matrices(self%disp_nodes, self%gauss_nodes, self%b, self%a)
         call lagrange_matrices(self%mom_nodes, self%gauss_nodes, self%c, unused)
 
+        ! Quadrature sums of the parts that do not involve the user's functions.
+        allocate (self%wb(gauss_points, 0:order_m), self%wc(gauss_points, 0:order_n))
+        do g = 1, gauss_points
+            self%wb(g, :) = self%gauss_weights(g) * self%b(g, :)
+            self%wc(g, :) = self%gauss_weights(g) * self%c(g, :)
+        end do
+        allocate (self%sum_a(0:order_m), self%sca(0:order_n, order_m), &
+                  self%scb(0:order_n, order_m), self%scc(0:order_n, 0:order_n), &
+                  self%sac(0:order_m, 0:order_n), self%sbb(0:order_m, order_m), &
+                  self%sbc(0:order_m, 0:order_n))
+        do i = 0, order_m
+            self%sum_a(i) = sum(self%gauss_weights * self%a(:, i))
+        end do
+        ! sum_g w_g rho_i'(tau_g) = rho_i(1) - rho_i(0) exactly when Gauss integrates
+        ! degree M - 1 (2G >= M): use the exact values (no cancellation in p_a + D_0).
+        if (2 * gauss_points >= order_m) then
+            self%sum_a = 0
+            self%sum_a(0) = -1
+            self%sum_a(order_m) = 1
+        end if
+        do k = 1, order_m
+            do j = 0, order_n
+                self%sca(j, k) = sum(self%wc(:, j) * self%a(:, k))
+                self%scb(j, k) = sum(self%wc(:, j) * self%b(:, k))
+            end do
+            do i = 0, order_m
+                self%sbb(i, k) = sum(self%wb(:, i) * self%b(:, k))
+            end do
+        end do
+        do j = 0, order_n
+            do k = 0, order_n
+                self%scc(k, j) = sum(self%wc(:, k) * self%c(:, j))
+            end do
+            do i = 0, order_m
+                self%sac(i, j) = sum(self%gauss_weights * self%a(:, i) * self%c(:, j))
+                self%sbc(i, j) = sum(self%wb(:, i) * self%c(:, j))
+            end do
+        end do
+        allocate (self%extrap_q(0:order_m, 0:order_m), self%extrap_p(0:order_n, 0:order_n))
+        do k = 0, order_m
+            self%extrap_q(k, :) = lagrange_values(self%disp_nodes, 1 + self%disp_nodes(k))
+        end do
+        do k = 0, order_n
+            self%extrap_p(k, :) = lagrange_values(self%mom_nodes, 1 + self%mom_nodes(k))
+        end do
+
         allocate (self%qa(n), self%pa(n), self%cached_x(self%nx))
         allocate (self%q_nodes(n, 0:order_m), self%d_values(n, 0:order_m))
-        allocate (self%q_gauss(n, gauss_points), self%v_gauss(n, gauss_points))
+        allocate (self%q_gauss(n, gauss_points))
         allocate (self%p_gauss(n, gauss_points), self%hq_gauss(n, gauss_points))
         allocate (self%hp_gauss(n, gauss_points), self%phi_jac(m, n, 0:order_m))
+        allocate (self%velocity(n), self%q_work(n), self%phi_work(m))
+        allocate (self%hqq(n, n, gauss_points), self%hqp(n, n, gauss_points), &
+                  self%hpp(n, n, gauss_points), self%phi_hess(n, n, m, order_m), &
+                  self%end_hqq(n, n), self%end_hqp(n, n), self%end_hpp(n, n), &
+                  self%d_block(n, self%nx), self%end_product(m, n), self%weights(gauss_points))
+        allocate (self%pattern_qq(n, n), self%pattern_qp(n, n), self%pattern_pp(n, n))
+        allocate (self%x_work(self%nx), self%f_plus(self%nx), self%f_minus(self%nx))
         self%cache_valid = .false.
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine scheme_init
@@ -145,9 +262,16 @@ contains
     subroutine release(self)
         class(discrete_scheme), intent(inout) :: self
         if (allocated(self%disp_nodes)) deallocate (self%disp_nodes, self%lobatto_weights, &
-            self%mom_nodes, self%gauss_nodes, self%gauss_weights, self%b, self%a, self%c, &
-            self%qa, self%pa, self%cached_x, self%q_nodes, self%d_values, self%q_gauss, &
-            self%v_gauss, self%p_gauss, self%hq_gauss, self%hp_gauss, self%phi_jac)
+            self%mom_nodes, self%gauss_nodes, self%gauss_weights, self%b, self%a, self%c)
+        if (allocated(self%wb)) deallocate (self%wb, self%wc, self%sum_a, self%sca, self%scb, &
+            self%scc, self%sac, self%sbb, self%sbc, self%extrap_q, self%extrap_p)
+        if (allocated(self%qa)) deallocate (self%qa, self%pa, self%cached_x, self%q_nodes, &
+            self%d_values, self%q_gauss, self%p_gauss, self%hq_gauss, self%hp_gauss, &
+            self%phi_jac, self%velocity, self%q_work, self%phi_work)
+        if (allocated(self%hqq)) deallocate (self%hqq, self%hqp, self%hpp, self%phi_hess, &
+            self%end_hqq, self%end_hqp, self%end_hpp, self%d_block, self%end_product, &
+            self%weights, self%pattern_qq, self%pattern_qp, self%pattern_pp, self%x_work, &
+            self%f_plus, self%f_minus)
         self%cache_valid = .false.
     end subroutine release
 
@@ -164,6 +288,9 @@ contains
         self%pa = pa
         self%h = h
         self%cache_valid = .false.
+        ! q_0 = q_a during the whole solve: its constraint Jacobian is evaluated once.
+        self%q_nodes(:, 0) = qa
+        if (self%m > 0) call sys%constraint_jacobian(qa, self%phi_jac(:, :, 0))
     end subroutine scheme_set_step
 
     !> Offset (0-based) of unknown block z_k, k = 1..M.
@@ -203,60 +330,72 @@ contains
         class(discrete_scheme), intent(inout) :: self
         real(wp), intent(in) :: x(:)
         type(holosym_status_t), intent(out) :: status
-        integer :: n, m, g, i, j
-        real(wp) :: mu(self%m)
+        integer :: n, m, g, i, j, l, base, mu0
+        real(wp) :: coefficient
 
+        status%code = HOLOSYM_SUCCESS
         if (self%cache_valid) then
-            if (all(x == self%cached_x)) then
-                call set_status(status, HOLOSYM_SUCCESS, "")
-                return
-            end if
+            if (all(x == self%cached_x)) return
         end if
         self%cache_valid = .false.
         n = self%n
         m = self%m
-        self%q_nodes(:, 0) = self%qa
         do i = 1, self%order_m
-            self%q_nodes(:, i) = self%qa + x(z_at(self, i) + 1:z_at(self, i) + n)
+            base = z_at(self, i)
+            self%q_nodes(:, i) = self%qa + x(base + 1:base + n)
         end do
         do g = 1, self%gauss_points
             self%q_gauss(:, g) = self%qa
-            self%v_gauss(:, g) = 0
             do i = 1, self%order_m
-                self%q_gauss(:, g) = self%q_gauss(:, g) + self%b(g, i) * x(z_at(self, i) + 1:z_at(self, i) + n)
-                self%v_gauss(:, g) = self%v_gauss(:, g) + self%a(g, i) * x(z_at(self, i) + 1:z_at(self, i) + n)
+                base = z_at(self, i)
+                coefficient = self%b(g, i)
+                self%q_gauss(:, g) = self%q_gauss(:, g) + coefficient * x(base + 1:base + n)
             end do
             self%p_gauss(:, g) = self%pa
             do j = 0, self%order_n
-                self%p_gauss(:, g) = self%p_gauss(:, g) + self%c(g, j) * x(w_at(self, j) + 1:w_at(self, j) + n)
+                base = w_at(self, j)
+                coefficient = self%c(g, j)
+                self%p_gauss(:, g) = self%p_gauss(:, g) + coefficient * x(base + 1:base + n)
             end do
             call self%sys%dh_dq(self%q_gauss(:, g), self%p_gauss(:, g), self%hq_gauss(:, g))
             call self%sys%dh_dp(self%q_gauss(:, g), self%p_gauss(:, g), self%hp_gauss(:, g))
-            if (.not. (all(is_finite(self%hq_gauss(:, g))) .and. all(is_finite(self%hp_gauss(:, g))))) then
+            if (.not. (all_finite(self%hq_gauss(:, g)) .and. all_finite(self%hp_gauss(:, g)))) then
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq or dh_dp returned a " // &
                     "non-finite value at Gauss point " // int_str(g))
+                self%counters%gradients = self%counters%gradients + 2 * g
                 return
             end if
         end do
+        self%counters%gradients = self%counters%gradients + 2 * self%gauss_points
         do i = 0, self%order_m
-            call self%sys%constraint_jacobian(self%q_nodes(:, i), self%phi_jac(:, :, i))
-            if (.not. all(is_finite(self%phi_jac(:, :, i)))) then
+            if (i >= 1 .and. m > 0) call self%sys%constraint_jacobian(self%q_nodes(:, i), &
+                                                                      self%phi_jac(:, :, i))
+            if (.not. all_finite_matrix(self%phi_jac(:, :, i))) then
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint_jacobian returned " // &
                     "a non-finite value at displacement node " // int_str(i))
                 return
             end if
         end do
+        ! D_i = sum_a(i) p_a + sum_l SAC(i,l) w_l - h sum_g w_g B_gi Hq_g - wl_i Phi_i^T mu_i.
         do i = 0, self%order_m
-            mu = x(mu_at(self, i) + 1:mu_at(self, i) + m)
-            self%d_values(:, i) = -self%lobatto_weights(i) * matmul(mu, self%phi_jac(:, :, i))
+            self%d_values(:, i) = self%sum_a(i) * self%pa
+            do l = 0, self%order_n
+                base = w_at(self, l)
+                coefficient = self%sac(i, l)
+                self%d_values(:, i) = self%d_values(:, i) + coefficient * x(base + 1:base + n)
+            end do
             do g = 1, self%gauss_points
-                self%d_values(:, i) = self%d_values(:, i) + self%gauss_weights(g) * &
-                    (self%a(g, i) * self%p_gauss(:, g) - self%h * self%b(g, i) * self%hq_gauss(:, g))
+                coefficient = self%h * self%wb(g, i)
+                self%d_values(:, i) = self%d_values(:, i) - coefficient * self%hq_gauss(:, g)
+            end do
+            mu0 = mu_at(self, i)
+            do l = 1, m
+                coefficient = self%lobatto_weights(i) * x(mu0 + l)
+                self%d_values(:, i) = self%d_values(:, i) - coefficient * self%phi_jac(l, :, i)
             end do
         end do
         self%cached_x = x
         self%cache_valid = .true.
-        call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine evaluate
 
     !> Residual of the step equations at x (see the module header for the row order).
@@ -265,19 +404,26 @@ contains
         real(wp), intent(in) :: x(:)   !! unknowns
         real(wp), intent(out) :: f(:)  !! residual
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: n, m, g, i, j, row
-        real(wp) :: velocity(self%n)
+        integer :: n, m, g, i, j, k, l, row, base
+        real(wp) :: coefficient
 
+        self%counters%residuals = self%counters%residuals + 1
         call evaluate(self, x, status)
         if (.not. status%ok()) return
         n = self%n
         m = self%m
+        ! R_p,j = sum_k SCA(j,k) z_k - h sum_g w_g C_gj Hp_g.
         do j = 0, self%order_n
             row = j * n
             f(row + 1:row + n) = 0
+            do k = 1, self%order_m
+                base = z_at(self, k)
+                coefficient = self%sca(j, k)
+                f(row + 1:row + n) = f(row + 1:row + n) + coefficient * x(base + 1:base + n)
+            end do
             do g = 1, self%gauss_points
-                f(row + 1:row + n) = f(row + 1:row + n) + self%gauss_weights(g) * self%c(g, j) * &
-                    (self%v_gauss(:, g) - self%h * self%hp_gauss(:, g))
+                coefficient = self%h * self%wc(g, j)
+                f(row + 1:row + n) = f(row + 1:row + n) - coefficient * self%hp_gauss(:, g)
             end do
         end do
         do i = 1, self%order_m - 1
@@ -288,108 +434,212 @@ contains
         f(row + 1:row + n) = self%pa + self%d_values(:, 0)
         row = (self%order_m + self%order_n + 1) * n
         do i = 1, self%order_m
-            call self%sys%constraint(self%q_nodes(:, i), f(row + 1:row + m))
+            if (m > 0) call self%sys%constraint(self%q_nodes(:, i), f(row + 1:row + m))
             row = row + m
         end do
-        call self%sys%dh_dp(self%q_nodes(:, self%order_m), self%d_values(:, self%order_m), velocity)
-        f(row + 1:row + m) = matmul(self%phi_jac(:, :, self%order_m), velocity)
-        if (.not. all(is_finite(f))) then
+        call self%sys%dh_dp(self%q_nodes(:, self%order_m), self%d_values(:, self%order_m), &
+                            self%velocity)
+        self%counters%gradients = self%counters%gradients + 1
+        do l = 1, m
+            f(row + l) = sum(self%phi_jac(l, :, self%order_m) * self%velocity)
+        end do
+        if (.not. all_finite(f)) then
             call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint or dh_dp returned a " // &
                 "non-finite value at a displacement node")
         end if
     end subroutine scheme_residual
 
-    !> Jacobian of the step equations at x, assembled from the second derivatives of H
-    !! and phi (the system's own, or its finite-difference defaults).
+    !> Jacobian of the step equations at x: assembled from the second derivatives of H
+    !! and phi (the system's own, or central differences of its gradients, as
+    !! `hessian_mode` says), or by central differences of the residual (`jacobian_mode`).
     subroutine scheme_jacobian(self, x, jac, status)
         class(discrete_scheme), intent(inout) :: self
         real(wp), intent(in) :: x(:)        !! unknowns
         real(wp), intent(out) :: jac(:, :)  !! nx x nx
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: n, m, mm, g, i, j, k, l, row, col
-        real(wp), allocatable :: hqq(:, :, :), hqp(:, :, :), hpp(:, :, :), phi_hess(:, :, :, :)
-        real(wp), allocatable :: d_block(:, :), end_hqq(:, :), end_hqp(:, :), end_hpp(:, :)
-        real(wp) :: weight, identity(self%n, self%n), velocity(self%n), mu(self%m)
+
+        self%counters%jacobians = self%counters%jacobians + 1
+        if (self%jacobian_mode == JACOBIAN_RESIDUAL_DIFFERENCES) then
+            call residual_differences(self, x, jac, status)
+        else
+            call assemble_jacobian(self, x, jac, status)
+        end if
+    end subroutine scheme_jacobian
+
+    !> Jacobian column by column from central differences of the residual.
+    subroutine residual_differences(self, x, jac, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:)
+        real(wp), intent(out) :: jac(:, :)
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: upper, lower
+        integer :: j
+        self%x_work = x
+        do j = 1, self%nx
+            upper = x(j) + residual_step * max(1.0_wp, abs(x(j)))
+            lower = x(j) - residual_step * max(1.0_wp, abs(x(j)))
+            self%x_work(j) = upper
+            call scheme_residual(self, self%x_work, self%f_plus, status)
+            if (.not. status%ok()) return
+            self%x_work(j) = lower
+            call scheme_residual(self, self%x_work, self%f_minus, status)
+            if (.not. status%ok()) return
+            self%x_work(j) = x(j)
+            ! Differencing the representable neighbours keeps the divisor exact.
+            jac(:, j) = (self%f_plus - self%f_minus) / (upper - lower)
+        end do
+    end subroutine residual_differences
+
+    !> Second derivatives of H at (q, p), from the user or by differences.
+    subroutine second_derivatives(self, q, p, hqq, hqp, hpp)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: hqq(:, :), hqp(:, :), hpp(:, :)
+        self%counters%hessians = self%counters%hessians + 1
+        if (self%hessian_mode == HESSIANS_DIFFERENCES) then
+            call difference_hessian(self%sys, q, p, hqq, hqp, hpp)
+            self%counters%gradients = self%counters%gradients + 6 * self%n
+        else
+            call self%sys%hessian(q, p, hqq, hqp, hpp)
+        end if
+    end subroutine second_derivatives
+
+    !> Which entries of a set of matrices hess(:, :, g) are zero for all g, equal for all g,
+    !! or varying.
+    pure subroutine classify(hess, pattern)
+        real(wp), intent(in) :: hess(:, :, :)
+        integer, intent(out) :: pattern(:, :)
+        integer :: a, b
+        do b = 1, size(hess, 2)
+            do a = 1, size(hess, 1)
+                if (all(hess(a, b, :) == hess(a, b, 1))) then
+                    if (hess(a, b, 1) == 0) then
+                        pattern(a, b) = entry_zero
+                    else
+                        pattern(a, b) = entry_constant
+                    end if
+                else
+                    pattern(a, b) = entry_varying
+                end if
+            end do
+        end do
+    end subroutine classify
+
+    !> target(row + a, col + b) += factor * sum_g s_g H_g(a, b) (or H_g(b, a) when
+    !! `transposed`), with `total` = sum_g s_g used for entries constant over g.
+    pure subroutine add_hessian_block(target, row, col, factor, s, total, hess, pattern, &
+                                      transposed)
+        real(wp), intent(inout) :: target(:, :)
+        integer, intent(in) :: row, col
+        real(wp), intent(in) :: factor, s(:), total, hess(:, :, :)
+        integer, intent(in) :: pattern(:, :)
+        logical, intent(in) :: transposed
+        integer :: a, b, ia, ib, g, n
+        real(wp) :: value
+        n = size(hess, 1)
+        do b = 1, n
+            do a = 1, n
+                if (transposed) then
+                    ia = b
+                    ib = a
+                else
+                    ia = a
+                    ib = b
+                end if
+                select case (pattern(ia, ib))
+                case (entry_zero)
+                    cycle
+                case (entry_constant)
+                    value = total * hess(ia, ib, 1)
+                case default
+                    value = 0
+                    do g = 1, size(s)
+                        value = value + s(g) * hess(ia, ib, g)
+                    end do
+                end select
+                target(row + a, col + b) = target(row + a, col + b) + factor * value
+            end do
+        end do
+    end subroutine add_hessian_block
+
+    !> The assembled Jacobian.
+    subroutine assemble_jacobian(self, x, jac, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:)
+        real(wp), intent(out) :: jac(:, :)
+        type(holosym_status_t), intent(out) :: status
+        integer :: n, m, mm, g, i, j, k, l, row, col, a
+        logical :: any_varying_qq, any_varying_qp, any_varying_pp, finite
 
         call evaluate(self, x, status)
         if (.not. status%ok()) return
         n = self%n
         m = self%m
         mm = self%order_m
-        allocate (hqq(n, n, self%gauss_points), hqp(n, n, self%gauss_points), &
-                  hpp(n, n, self%gauss_points), phi_hess(n, n, m, 1:mm), d_block(n, self%nx), &
-                  end_hqq(n, n), end_hqp(n, n), end_hpp(n, n))
-        identity = 0
-        do i = 1, n
-            identity(i, i) = 1
-        end do
         do g = 1, self%gauss_points
-            call self%sys%hessian(self%q_gauss(:, g), self%p_gauss(:, g), hqq(:, :, g), &
-                                  hqp(:, :, g), hpp(:, :, g))
+            call second_derivatives(self, self%q_gauss(:, g), self%p_gauss(:, g), &
+                                    self%hqq(:, :, g), self%hqp(:, :, g), self%hpp(:, :, g))
         end do
         do i = 1, mm
-            call self%sys%constraint_hessian(self%q_nodes(:, i), phi_hess(:, :, :, i))
+            if (m == 0) exit
+            self%counters%hessians = self%counters%hessians + 1
+            if (self%hessian_mode == HESSIANS_DIFFERENCES) then
+                call difference_constraint_hessian(self%sys, self%q_nodes(:, i), &
+                                                   self%phi_hess(:, :, :, i))
+            else
+                call self%sys%constraint_hessian(self%q_nodes(:, i), self%phi_hess(:, :, :, i))
+            end if
         end do
-        if (.not. (all(is_finite(hqq)) .and. all(is_finite(hqp)) .and. all(is_finite(hpp)) .and. &
-                   all(is_finite(phi_hess)))) then
+        finite = .true.
+        do g = 1, self%gauss_points
+            finite = finite .and. all_finite_matrix(self%hqq(:, :, g)) .and. &
+                all_finite_matrix(self%hqp(:, :, g)) .and. all_finite_matrix(self%hpp(:, :, g))
+        end do
+        do i = 1, mm
+            do l = 1, m
+                finite = finite .and. all_finite_matrix(self%phi_hess(:, :, l, i))
+            end do
+        end do
+        if (.not. finite) then
             call set_status(status, HOLOSYM_NONFINITE_VALUE, "second derivatives of H or phi " // &
                 "are not finite")
             return
         end if
+        call classify(self%hqq, self%pattern_qq)
+        call classify(self%hqp, self%pattern_qp)
+        call classify(self%hpp, self%pattern_pp)
+        any_varying_qq = any(self%pattern_qq == entry_varying)
+        any_varying_qp = any(self%pattern_qp == entry_varying)
+        any_varying_pp = any(self%pattern_pp == entry_varying)
 
         jac = 0
-        ! R_p,j = sum_g w_g C_gj (V_g - h H_p): depends on z (through Q, V) and w (through P).
+        ! R_p,j = sum_k SCA(j,k) z_k - h sum_g w_g C_gj H_p(Q_g, P_g).
         do j = 0, self%order_n
             row = j * n
             do k = 1, mm
                 col = z_at(self, k)
-                do g = 1, self%gauss_points
-                    weight = self%gauss_weights(g) * self%c(g, j)
-                    jac(row + 1:row + n, col + 1:col + n) = jac(row + 1:row + n, col + 1:col + n) &
-                        + weight * (self%a(g, k) * identity &
-                                    - self%h * self%b(g, k) * transpose(hqp(:, :, g)))
+                do a = 1, n
+                    jac(row + a, col + a) = jac(row + a, col + a) + self%sca(j, k)
                 end do
+                if (any_varying_qp) self%weights = self%wc(:, j) * self%b(:, k)
+                call add_hessian_block(jac, row, col, -self%h, self%weights, self%scb(j, k), &
+                                       self%hqp, self%pattern_qp, .true.)
             end do
             do l = 0, self%order_n
                 col = w_at(self, l)
-                do g = 1, self%gauss_points
-                    weight = -self%h * self%gauss_weights(g) * self%c(g, j) * self%c(g, l)
-                    jac(row + 1:row + n, col + 1:col + n) = jac(row + 1:row + n, col + 1:col + n) &
-                        + weight * hpp(:, :, g)
-                end do
+                if (any_varying_pp) self%weights = self%wc(:, j) * self%c(:, l)
+                call add_hessian_block(jac, row, col, -self%h, self%weights, self%scc(j, l), &
+                                       self%hpp, self%pattern_pp, .false.)
             end do
         end do
-        ! D_i rows for i = 0..M-1; D_M feeds the velocity constraint below.
+        ! D_i rows for i = 0..M-1; D_M (into d_block) feeds the velocity constraint below.
         do i = 0, mm
-            d_block = 0
-            do k = 1, mm
-                col = z_at(self, k)
-                do g = 1, self%gauss_points
-                    weight = -self%h * self%gauss_weights(g) * self%b(g, i) * self%b(g, k)
-                    d_block(:, col + 1:col + n) = d_block(:, col + 1:col + n) + weight * hqq(:, :, g)
-                end do
-            end do
-            if (i >= 1) then
-                col = z_at(self, i)
-                mu = x(mu_at(self, i) + 1:mu_at(self, i) + m)
-                do l = 1, m
-                    d_block(:, col + 1:col + n) = d_block(:, col + 1:col + n) &
-                        - self%lobatto_weights(i) * mu(l) * phi_hess(:, :, l, i)
-                end do
-            end if
-            do l = 0, self%order_n
-                col = w_at(self, l)
-                do g = 1, self%gauss_points
-                    weight = self%gauss_weights(g) * self%c(g, l)
-                    d_block(:, col + 1:col + n) = d_block(:, col + 1:col + n) &
-                        + weight * (self%a(g, i) * identity - self%h * self%b(g, i) * hqp(:, :, g))
-                end do
-            end do
-            col = mu_at(self, i)
-            d_block(:, col + 1:col + m) = -self%lobatto_weights(i) * transpose(self%phi_jac(:, :, i))
             if (i < mm) then
                 row = d_row_at(self, i)
-                jac(row + 1:row + n, :) = d_block
+                call d_derivatives(jac, row)
+            else
+                self%d_block = 0
+                call d_derivatives(self%d_block, 0)
             end if
         end do
         ! phi(q_i) rows.
@@ -399,24 +649,79 @@ contains
             jac(row + 1:row + m, col + 1:col + n) = self%phi_jac(:, :, i)
             row = row + m
         end do
+        if (m == 0) return
         ! Phi(q_M) H_p(q_M, p_b), p_b = D_M: chain rule through D_M (d_block holds dD_M/dx).
-        call self%sys%dh_dp(self%q_nodes(:, mm), self%d_values(:, mm), velocity)
-        call self%sys%hessian(self%q_nodes(:, mm), self%d_values(:, mm), end_hqq, end_hqp, end_hpp)
-        if (.not. (all(is_finite(velocity)) .and. all(is_finite(end_hqp)) .and. &
-                   all(is_finite(end_hpp)))) then
+        call self%sys%dh_dp(self%q_nodes(:, mm), self%d_values(:, mm), self%velocity)
+        self%counters%gradients = self%counters%gradients + 1
+        call second_derivatives(self, self%q_nodes(:, mm), self%d_values(:, mm), &
+                                self%end_hqq, self%end_hqp, self%end_hpp)
+        if (.not. (all_finite(self%velocity) .and. all_finite_matrix(self%end_hqp) .and. &
+                   all_finite_matrix(self%end_hpp))) then
             call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dp or its derivatives are not " // &
                 "finite at the step end")
             return
         end if
-        jac(row + 1:row + m, :) = matmul(matmul(self%phi_jac(:, :, mm), end_hpp), d_block)
-        col = z_at(self, mm)
-        jac(row + 1:row + m, col + 1:col + n) = jac(row + 1:row + m, col + 1:col + n) &
-            + matmul(self%phi_jac(:, :, mm), transpose(end_hqp))
-        do l = 1, m
-            jac(row + l, col + 1:col + n) = jac(row + l, col + 1:col + n) &
-                + matmul(phi_hess(:, :, l, mm), velocity)
+        do k = 1, n
+            do l = 1, m
+                self%end_product(l, k) = sum(self%phi_jac(l, :, mm) * self%end_hpp(:, k))
+            end do
         end do
-    end subroutine scheme_jacobian
+        do col = 1, self%nx
+            do l = 1, m
+                jac(row + l, col) = sum(self%end_product(l, :) * self%d_block(:, col))
+            end do
+        end do
+        col = z_at(self, mm)
+        do k = 1, n
+            do l = 1, m
+                ! (Phi_M hqp_end^T)(l, k) + (phi_l'' velocity)(k).
+                jac(row + l, col + k) = jac(row + l, col + k) &
+                    + sum(self%phi_jac(l, :, mm) * self%end_hqp(k, :)) &
+                    + sum(self%phi_hess(:, k, l, mm) * self%velocity)
+            end do
+        end do
+
+    contains
+
+        !> dD_i/dx into target rows row+1..row+n (i from the host).
+        subroutine d_derivatives(target, row)
+            real(wp), intent(inout) :: target(:, :)
+            integer, intent(in) :: row
+            integer :: k, l, col, a, b
+            do k = 1, mm
+                col = z_at(self, k)
+                if (any_varying_qq) self%weights = self%wb(:, i) * self%b(:, k)
+                call add_hessian_block(target, row, col, -self%h, self%weights, &
+                                       self%sbb(i, k), self%hqq, self%pattern_qq, .false.)
+            end do
+            if (i >= 1) then
+                col = z_at(self, i)
+                do l = 1, m
+                    do b = 1, n
+                        do a = 1, n
+                            target(row + a, col + b) = target(row + a, col + b) &
+                                - self%lobatto_weights(i) * x(mu_at(self, i) + l) &
+                                * self%phi_hess(a, b, l, i)
+                        end do
+                    end do
+                end do
+            end if
+            do l = 0, self%order_n
+                col = w_at(self, l)
+                do a = 1, n
+                    target(row + a, col + a) = target(row + a, col + a) + self%sac(i, l)
+                end do
+                if (any_varying_qp) self%weights = self%wb(:, i) * self%c(:, l)
+                call add_hessian_block(target, row, col, -self%h, self%weights, &
+                                       self%sbc(i, l), self%hqp, self%pattern_qp, .false.)
+            end do
+            col = mu_at(self, i)
+            do l = 1, m
+                target(row + 1:row + n, col + l) = -self%lobatto_weights(i) * self%phi_jac(l, :, i)
+            end do
+        end subroutine d_derivatives
+
+    end subroutine assemble_jacobian
 
     !> First guess q_i = q_a, p_j = p_a, lambda_k = 0 (all increments zero).
     pure subroutine scheme_constant_guess(self, x)
@@ -437,22 +742,59 @@ contains
         real(wp), intent(in) :: pa(:)      !! start momenta of the new step
         real(wp), intent(in) :: h          !! new step size
         real(wp), intent(out) :: x(:)      !! first guess (nx)
-        real(wp) :: q(self%n), p(self%n), lambda(self%m), ratio
-        integer :: i, j, n, m
+        integer :: i, j, k, n, m, base
         n = self%n
         m = self%m
-        ratio = h / h_prev
-        do i = 0, self%order_m
-            call self%dense(x_prev, qa_prev, pa_prev, h_prev, 1 + ratio * self%disp_nodes(i), &
-                            q, p, lambda)
-            if (i >= 1) x(z_at(self, i) + 1:z_at(self, i) + n) = q - qa
-            x(mu_at(self, i) + 1:mu_at(self, i) + m) = h * lambda
-        end do
-        do j = 0, self%order_n
-            call self%dense(x_prev, qa_prev, pa_prev, h_prev, 1 + ratio * self%mom_nodes(j), &
-                            q, p, lambda)
-            x(w_at(self, j) + 1:w_at(self, j) + n) = p - pa
-        end do
+        if (h == h_prev) then
+            ! Equal steps: precomputed rho_i(1 + d_k), chi_j(1 + c_l), no allocation.
+            do k = 0, self%order_m
+                if (k >= 1) then
+                    base = z_at(self, k)
+                    x(base + 1:base + n) = qa_prev - qa
+                    do i = 1, self%order_m
+                        x(base + 1:base + n) = x(base + 1:base + n) + self%extrap_q(k, i) * &
+                            x_prev(z_at(self, i) + 1:z_at(self, i) + n)
+                    end do
+                end if
+                base = mu_at(self, k)
+                x(base + 1:base + m) = 0
+                do i = 0, self%order_m
+                    x(base + 1:base + m) = x(base + 1:base + m) + self%extrap_q(k, i) * &
+                        x_prev(mu_at(self, i) + 1:mu_at(self, i) + m)
+                end do
+            end do
+            do k = 0, self%order_n
+                base = w_at(self, k)
+                x(base + 1:base + n) = pa_prev - pa
+                do j = 0, self%order_n
+                    x(base + 1:base + n) = x(base + 1:base + n) + self%extrap_p(k, j) * &
+                        x_prev(w_at(self, j) + 1:w_at(self, j) + n)
+                end do
+            end do
+            return
+        end if
+        call general_ratio()
+
+    contains
+
+        !> Unequal steps: evaluate the previous polynomials at 1 + (h/h_prev) d_k.
+        subroutine general_ratio()
+            real(wp) :: q(self%n), p(self%n), lambda(self%m), ratio
+            integer :: i, j
+            ratio = h / h_prev
+            do i = 0, self%order_m
+                call self%dense(x_prev, qa_prev, pa_prev, h_prev, 1 + ratio * self%disp_nodes(i), &
+                                q, p, lambda)
+                if (i >= 1) x(z_at(self, i) + 1:z_at(self, i) + n) = q - qa
+                x(mu_at(self, i) + 1:mu_at(self, i) + m) = h * lambda
+            end do
+            do j = 0, self%order_n
+                call self%dense(x_prev, qa_prev, pa_prev, h_prev, 1 + ratio * self%mom_nodes(j), &
+                                q, p, lambda)
+                x(w_at(self, j) + 1:w_at(self, j) + n) = p - pa
+            end do
+        end subroutine general_ratio
+
     end subroutine scheme_extrapolated_guess
 
     !> Step results from the solution x of the step bound by `set_step`:
@@ -465,17 +807,21 @@ contains
         real(wp), intent(out) :: dq(:)  !! q_b - q_a
         real(wp), intent(out) :: dp(:)  !! p_b - p_a
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: g, i
+        integer :: g, i, l
+        real(wp) :: coefficient
         call evaluate(self, x, status)
         if (.not. status%ok()) return
         dq = x(z_at(self, self%order_m) + 1:z_at(self, self%order_m) + self%n)
         dp = 0
         do g = 1, self%gauss_points
-            dp = dp - self%h * self%gauss_weights(g) * self%hq_gauss(:, g)
+            coefficient = self%h * self%gauss_weights(g)
+            dp = dp - coefficient * self%hq_gauss(:, g)
         end do
         do i = 0, self%order_m
-            dp = dp - self%lobatto_weights(i) * &
-                matmul(x(mu_at(self, i) + 1:mu_at(self, i) + self%m), self%phi_jac(:, :, i))
+            do l = 1, self%m
+                coefficient = self%lobatto_weights(i) * x(mu_at(self, i) + l)
+                dp = dp - coefficient * self%phi_jac(l, :, i)
+            end do
         end do
     end subroutine scheme_increments
 
@@ -513,15 +859,15 @@ contains
         real(wp), intent(in) :: x(:)            !! solution of the step bound by set_step
         real(wp), intent(out) :: lambda(:, 0:)  !! m x (0:M) multipliers lambda_k
         real(wp), intent(out) :: max_phi        !! max over nodes and components of |phi|
-        real(wp) :: phi(self%m), q(self%n)
         integer :: i
         max_phi = 0
         do i = 0, self%order_m
             lambda(:, i) = x(mu_at(self, i) + 1:mu_at(self, i) + self%m) / self%h
-            q = self%qa
-            if (i >= 1) q = q + x(z_at(self, i) + 1:z_at(self, i) + self%n)
-            call self%sys%constraint(q, phi)
-            if (self%m > 0) max_phi = max(max_phi, maxval(abs(phi)))
+            self%q_work = self%qa
+            if (i >= 1) self%q_work = self%q_work + x(z_at(self, i) + 1:z_at(self, i) + self%n)
+            if (self%m == 0) cycle
+            call self%sys%constraint(self%q_work, self%phi_work)
+            max_phi = max(max_phi, maxval(abs(self%phi_work)))
         end do
     end subroutine scheme_node_values
 

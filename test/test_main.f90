@@ -10,6 +10,8 @@ program holosym_tests
     use test_integrator, only: integrator_tests
     use test_cli, only: cli_tests
     use test_tables, only: tables_tests
+    use test_speed, only: speed_tests
+    use test_rattle, only: rattle_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed
@@ -28,6 +30,8 @@ program holosym_tests
     call run_suite("integrator", integrator_tests(), filter, passed, failed)
     call run_suite("cli", cli_tests(), filter, passed, failed)
     call run_suite("tables", tables_tests(), filter, passed, failed)
+    call run_suite("speed", speed_tests(), filter, passed, failed)
+    call run_suite("rattle", rattle_tests(), filter, passed, failed)
     write (summary, '(i0, " passed, ", i0, " failed")') passed, failed
     print '(a)', trim(summary)
     if (failed > 0) error stop 1
