@@ -63,7 +63,8 @@ contains
             "", &
             "Work-precision benchmark: holosym (M = 1..8, N = M-1, G = M and M+1, fast options)", &
             "against RATTLE composed to orders 2-10 (triple jump, Suzuki) inside holosym, on", &
-            "the spherical pendulum (T = 10), spring-linkage (T = 10), planar pendulum (T = 100);", &
+            "the spherical pendulum (T = 10), spring-linkage (T = 10), planar pendulum", &
+            "(T = 100);", &
             "and the per-step cost of each speed option against the plain path.", &
             "", &
             "Options:", &
@@ -74,7 +75,8 @@ contains
             "  --budget S       stop refining h once a run takes S CPU seconds (default 1.5)", &
             "  --quick          M <= 4, orders <= 6, budget 0.2 s (about a minute)", &
             "  --no-per-step    skip the per-step comparison", &
-            "  --reference FILE read the reference states (the real64 build uses the real128 one)", &
+            "  --reference FILE read the reference states (the real64 build uses the", &
+            "                   real128 one)", &
             "  --summarize DIR  only rebuild DIR/summary.md from DIR/bench.csv and bench64.csv", &
             "  --help           this text", &
             "", &
@@ -563,7 +565,8 @@ contains
             difference = steps_rows(c)%difference
             write (unit, '(a)') "| (" // int_str(steps_rows(c)%order_m) // "," // &
                 int_str(steps_rows(c)%order_n) // "," // int_str(steps_rows(c)%gauss_points) &
-                // ") " // trim(steps_rows(c)%precision) // " | " // variant_name(variant) // " | " // seconds_text(per_step) // &
+                // ") " // trim(steps_rows(c)%precision) // " | " // variant_name(variant) // &
+                " | " // seconds_text(per_step) // &
                 " | " // ratio_text(plain_step / per_step) // " | " // &
                 ratio_text(real(steps_rows(c)%newton_iterations, real64) / &
                            steps_rows(c)%steps) // " | " // &

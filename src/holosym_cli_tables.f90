@@ -61,7 +61,8 @@ module holosym_cli_tables
         character(len=:), allocatable :: system      !! system name
         type(order_cell_t), allocatable :: table1(:) !! M x N grid, G = max(M, N) + 1
         type(order_cell_t), allocatable :: table2(:) !! M = N + 1, G = M .. M + 3
-        integer, allocatable :: min_gauss(:, :)  !! (M, 0:N): smallest nonsingular G, 0 none, -1 failed
+        !> (M, 0:N): smallest nonsingular G; 0 none found, -1 the search failed.
+        integer, allocatable :: min_gauss(:, :)
         integer :: max_gauss_tried = 0               !! largest G searched beyond max(M, N) + 1
         real(wp) :: reference_change = 0  !! |q_ref(h) - q_ref(h/2)|: accuracy of the reference
         real(wp) :: seconds = 0           !! wall time

@@ -173,8 +173,10 @@ contains
             last = size(errors)
             done = errors(last) <= floor
             if (done .or. last < 3) return
-            orders = log(errors(last - 2:last - 1) / errors(last - 1:last)) / &
-                     log(settings%step_sizes(last - 2:last - 1) / settings%step_sizes(last - 1:last))
+            associate (h => settings%step_sizes)
+                orders = log(errors(last - 2:last - 1) / errors(last - 1:last)) / &
+                         log(h(last - 2:last - 1) / h(last - 1:last))
+            end associate
             done = abs(orders(2) - orders(1)) <= settings%settled
         end function done
 

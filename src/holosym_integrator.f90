@@ -9,13 +9,15 @@
 !! round-off, because every path iterates the same working-precision residual to the
 !! same tolerance):
 !!
-!! | component | values (default first) | effect |
-!! |---|---|---|
-!! | `newton%simplified` | `.false.`, `.true.` | keep the factorised Jacobian across iterations and steps while it contracts |
-!! | `linear_solver` | `'real128'`, `'mixed'` | factor in working precision, or in real64 with LAPACK dgetrf/dgetrs |
-!! | `jacobian` | `'assembled'`, `'residual-differences'` | from second derivatives, or differences of the residual |
-!! | `hessians` | `'user'`, `'differences'` | the system's `hessian` bindings, or differences of its gradients |
-!! | `extrapolate` | `.true.`, `.false.` | first guess from the previous step's polynomials |
+!! - `newton%simplified` (`.false.` | `.true.`): keep the factorised Jacobian across
+!!   iterations and steps while it contracts.
+!! - `linear_solver` (`'real128'` | `'mixed'`): factor in working precision, or in real64
+!!   with LAPACK dgetrf/dgetrs.
+!! - `jacobian` (`'assembled'` | `'residual-differences'`): from second derivatives, or
+!!   differences of the residual.
+!! - `hessians` (`'user'` | `'differences'`): the system's `hessian` bindings, or differences
+!!   of its gradients.
+!! - `extrapolate` (`.true.` | `.false.`): first guess from the previous step's polynomials.
 !!
 !! `'native'` is a synonym of `'real128'` and `'lapack'` of `'mixed'`; in the real64 build
 !! (`-DHOLOSYM_REAL64`) the default linear solver is `'lapack'`. `stats` counts the work.
@@ -229,7 +231,8 @@ contains
         else
             call manifold_residuals(sys, q, p, position, velocity, scaled_position, scaled_velocity)
             if (.not. (is_finite(scaled_position) .and. is_finite(scaled_velocity))) then
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint, constraint_jacobian " &
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+                    "constraint, constraint_jacobian " &
                     // "or dh_dp returned NaN or Inf at the start state")
             else if (scaled_position > self%manifold_tolerance) then
                 call set_status(status, HOLOSYM_OFF_MANIFOLD, "start state violates the " // &
@@ -237,7 +240,8 @@ contains
                     real_str(scaled_position) // " > tolerance " // &
                     real_str(self%manifold_tolerance) // "); project it first")
             else if (scaled_velocity > self%manifold_tolerance) then
-                call set_status(status, HOLOSYM_OFF_MANIFOLD, "start state violates the hidden " // &
+                call set_status(status, HOLOSYM_OFF_MANIFOLD, &
+                    "start state violates the hidden " // &
                     "constraint: max|Phi H_p| = " // real_str(velocity) // " (scaled " // &
                     real_str(scaled_velocity) // " > tolerance " // &
                     real_str(self%manifold_tolerance) // "); project it first")

@@ -153,7 +153,8 @@ contains
         if (allocated(self%q_cached)) deallocate (self%q_cached, self%force, self%phi_jac, &
             self%lambda, self%mu, self%p_half, self%q1, self%grad, self%grad2, self%velocity, &
             self%phi, self%phi_jac1, self%delta, self%small, self%hqq, self%hqp, self%hpp, &
-            self%hpp2, self%hqp2, self%tmp, self%phi_hess, self%big, self%big_rhs, self%y, self%pivots, &
+            self%hpp2, self%hqp2, self%tmp, self%phi_hess, self%big, self%big_rhs, self%y, &
+            self%pivots, &
             self%big_pivots)
         allocate (self%q_cached(n), self%force(n), self%phi_jac(m, n), self%lambda(m), &
                   self%mu(m), self%p_half(n), self%q1(n), self%grad(n), self%grad2(n), &

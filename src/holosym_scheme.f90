@@ -161,11 +161,13 @@ contains
 
         if (order_m < 1 .or. order_n < 0 .or. gauss_points < 1) then
             call set_status(status, HOLOSYM_INVALID_ORDER, "need M >= 1, N >= 0, G >= 1; got M = " &
-                // int_str(order_m) // ", N = " // int_str(order_n) // ", G = " // int_str(gauss_points))
+                // int_str(order_m) // ", N = " // int_str(order_n) // ", G = " // &
+                int_str(gauss_points))
             return
         end if
         if (n < 1 .or. m < 0 .or. m >= n) then
-            call set_status(status, HOLOSYM_INVALID_DIMENSION, "need n >= 1 and 0 <= m < n; got n = " &
+            call set_status(status, HOLOSYM_INVALID_DIMENSION, &
+                "need n >= 1 and 0 <= m < n; got n = " &
                 // int_str(n) // ", m = " // int_str(m))
             return
         end if
@@ -371,7 +373,8 @@ contains
             if (i >= 1 .and. m > 0) call self%sys%constraint_jacobian(self%q_nodes(:, i), &
                                                                       self%phi_jac(:, :, i))
             if (.not. all_finite_matrix(self%phi_jac(:, :, i))) then
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint_jacobian returned " // &
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+                    "constraint_jacobian returned " // &
                     "a non-finite value at displacement node " // int_str(i))
                 return
             end if
@@ -657,7 +660,8 @@ contains
                                 self%end_hqq, self%end_hqp, self%end_hpp)
         if (.not. (all_finite(self%velocity) .and. all_finite_matrix(self%end_hqp) .and. &
                    all_finite_matrix(self%end_hpp))) then
-            call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dp or its derivatives are not " // &
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+                "dh_dp or its derivatives are not " // &
                 "finite at the step end")
             return
         end if

@@ -424,7 +424,8 @@ contains
             call integrator%step(sys, q2, p2, 0.25_wp, status=status)
         end do
         call check(error, maxval(abs(q1 - q2)) + maxval(abs(p1 - p2)) <= 1.0e-31_wp, &
-            "integrate and step differ by " // real_str(maxval(abs(q1 - q2)) + maxval(abs(p1 - p2))))
+            "integrate and step differ by " // &
+            real_str(maxval(abs(q1 - q2)) + maxval(abs(p1 - p2))))
     end subroutine integrate_equals_steps
 
     !> Starting Newton from the extrapolated polynomials or from the constant guess gives
