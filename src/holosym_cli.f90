@@ -10,6 +10,7 @@ module holosym_cli
     use holosym_cli_simulate, only: simulate_command
     use holosym_cli_tables, only: tables_command
     use holosym_cli_bench, only: bench_command
+    use holosym_cli_extremes, only: extremes_command
     implicit none
     private
 
@@ -30,6 +31,7 @@ contains
             "  simulate   integrate a system and write its trajectory as CSV", &
             "  tables     measure the paper's Tables 1-2 and the minimum Gauss points", &
             "  bench      work-precision benchmark against composed RATTLE; speed options", &
+            "  extremes   stability at the extremes: long runs, tiny/large steps, high orders", &
             "", &
             "Run 'holosym COMMAND --help' (or 'holosym help COMMAND') for a command's options.", &
             "Exit status: 0 success, 1 the command failed, 2 bad usage."])
@@ -80,6 +82,8 @@ contains
             call tables_command(args, out_unit, err_unit, exit_code)
         case ("bench")
             call bench_command(args, out_unit, err_unit, exit_code)
+        case ("extremes")
+            call extremes_command(args, out_unit, err_unit, exit_code)
         case default
             write (err_unit, '(a)') "holosym: unknown command '" // name // &
                 "'; run 'holosym --help' for the list of commands"

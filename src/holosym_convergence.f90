@@ -6,7 +6,7 @@ module holosym_convergence
     use, intrinsic :: iso_fortran_env, only: error_unit
     use holosym_kinds, only: wp
     use holosym_status, only: holosym_status_t, set_status, int_str, real_str, &
-        HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_INVALID_ARGUMENT
+        HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_INVALID_ORDER
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator
     implicit none
@@ -261,7 +261,9 @@ contains
                 gauss_min = g
                 exit
             end if
-            if (local%code /= HOLOSYM_SINGULAR_MATRIX) then
+            ! G < N + 1 is rejected at init as singular for every system.
+            if (local%code /= HOLOSYM_SINGULAR_MATRIX .and. &
+                local%code /= HOLOSYM_INVALID_ORDER) then
                 call set_status(status, local%code, local%message)
                 return
             end if

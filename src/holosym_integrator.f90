@@ -390,8 +390,16 @@ contains
             status%message = "step with (M, N, G) = (" // int_str(order_m) // ", " // &
                 int_str(order_n) // ", " // int_str(gauss_points) // "), h = " // real_str(h) // &
                 ": " // status%message
-            if (status%code == HOLOSYM_SINGULAR_MATRIX) status%message = status%message // &
-                "; G or N may be too small for M (the paper needs G > max(M, N))"
+            if (status%code == HOLOSYM_SINGULAR_MATRIX) then
+                if (order_m >= order_n + 2) then
+                    status%message = status%message // "; M >= N + 2 is singular whenever " // &
+                        "H is degenerate along the surplus displacement modes (e.g. a " // &
+                        "symmetric potential): use N = M - 1"
+                else
+                    status%message = status%message // "; N or G may be too small for M " // &
+                        "(N = M - 1 with G >= M works), or the constraints are nearly dependent"
+                end if
+            end if
             return
         end if
         call self%scheme%increments(self%x_work, self%dq_work, self%dp_work, status)

@@ -147,7 +147,8 @@ contains
     end function unknown_count
 
     !> Set up nodes, weights and basis matrices for (M, N, G) and the sizes (n, m).
-    !! Codes: HOLOSYM_INVALID_ORDER (M < 1, N < 0, G < 1), HOLOSYM_INVALID_DIMENSION.
+    !! Codes: HOLOSYM_INVALID_ORDER (M < 1, N < 0, G < 1, or G < N + 1, which is singular
+    !! for every system), HOLOSYM_INVALID_DIMENSION.
     subroutine scheme_init(self, order_m, order_n, gauss_points, n, m, status)
         class(discrete_scheme), intent(inout) :: self
         integer, intent(in) :: order_m      !! M >= 1
@@ -163,6 +164,15 @@ contains
             call set_status(status, HOLOSYM_INVALID_ORDER, "need M >= 1, N >= 0, G >= 1; got M = " &
                 // int_str(order_m) // ", N = " // int_str(order_n) // ", G = " // &
                 int_str(gauss_points))
+            return
+        end if
+        if (gauss_points < order_n + 1) then
+            ! p~ (degree N) enters the equations only through its values at the G Gauss
+            ! points: one vanishing there is a null vector of the Jacobian for any system.
+            call set_status(status, HOLOSYM_INVALID_ORDER, "G = " // int_str(gauss_points) // &
+                " < N + 1 = " // int_str(order_n + 1) // ": the Newton Jacobian is singular " // &
+                "for every system (the momentum polynomial is seen only at the G Gauss " // &
+                "points); use G >= N + 1, e.g. N = M - 1, G = M + 1")
             return
         end if
         if (n < 1 .or. m < 0 .or. m >= n) then
@@ -211,13 +221,9 @@ contains
         do i = 0, order_m
             self%sum_a(i) = sum(self%gauss_weights * self%a(:, i))
         end do
-        ! sum_g w_g rho_i'(tau_g) = rho_i(1) - rho_i(0) exactly when Gauss integrates
-        ! degree M - 1 (2G >= M): use the exact values (no cancellation in p_a + D_0).
-        if (2 * gauss_points >= order_m) then
-            self%sum_a = 0
-            self%sum_a(0) = -1
-            self%sum_a(order_m) = 1
-        end if
+        ! Keep the computed sums even where they equal rho_i(1) - rho_i(0) in exact
+        ! arithmetic: with the exact +-1, 0 the equations are no longer exactly the gradient
+        ! of one discrete action, and round-off then drifts linearly instead of randomly.
         do k = 1, order_m
             do j = 0, order_n
                 self%sca(j, k) = sum(self%wc(:, j) * self%a(:, k))

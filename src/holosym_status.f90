@@ -12,7 +12,8 @@ module holosym_status
 
     !> Success.
     integer, parameter, public :: HOLOSYM_SUCCESS = 0
-    !> M < 1, N < 0 or G < 1, or an (M, N, G) known to give a singular Newton Jacobian.
+    !> M < 1, N < 0 or G < 1, or G < N + 1, which gives a singular Newton Jacobian for
+    !! every system.
     integer, parameter, public :: HOLOSYM_INVALID_ORDER = -1
     !> Problem dimensions invalid: n < 1, m < 0 or m >= n.
     integer, parameter, public :: HOLOSYM_INVALID_DIMENSION = -2

@@ -500,8 +500,8 @@ contains
         integer :: out, err, code, count
         open (newunit=out, status="scratch", action="readwrite")
         open (newunit=err, status="scratch", action="readwrite")
-        ! G = 1 <= max(M, N) makes the Newton Jacobian singular: a run-time failure.
-        call simulate_command(split_words("--M 2 --N 2 --G 1 --steps 3"), out, err, code)
+        ! M = N + 2 is singular on the pendulum (rotational symmetry): a run-time failure.
+        call simulate_command(split_words("--M 3 --N 1 --G 4 --steps 3"), out, err, code)
         call check(error, code == EXIT_FAILURE, "integrator failure exits 1")
         call read_all(out, lines, count)
         call check(error, count == 1, "the header stays written")

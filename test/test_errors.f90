@@ -671,12 +671,21 @@ contains
         type(constrained_integrator) :: integ
         real(wp) :: q0(3), p0(3)
         integer :: g
+        type(holosym_status_t) :: status
         call pendulum_start(sys, q0, p0)
-        do g = 1, 2
-            call init_ok(error, integ, sys, 3, 2, g)
+        ! M = N + 2: singular on the pendulum (rotational symmetry) for every G.
+        do g = 2, 4
+            call init_ok(error, integ, sys, 3, 1, g)
             call check_both_fail(error, integ, sys, q0, p0, step_size, HOLOSYM_SINGULAR_MATRIX, &
-                "G = " // int_str(g), "(M, N, G) = (3, 2, " // int_str(g) // ")")
+                "G = " // int_str(g), "(M, N, G) = (3, 1, " // int_str(g) // ")")
             if (allocated(error)) return
+        end do
+        ! G < N + 1: singular for every system, so rejected by init.
+        do g = 1, 2
+            call integ%init(sys, 3, 2, g, status)
+            call check_status_code(error, status%code, HOLOSYM_INVALID_ORDER, "init G = " // &
+                int_str(g))
+            call check(error, index(status%message, "N + 1") > 0, "message: " // status%message)
         end do
     end subroutine singular_jacobian
 

@@ -12,6 +12,7 @@ program holosym_tests
     use test_tables, only: tables_tests
     use test_speed, only: speed_tests
     use test_rattle, only: rattle_tests
+    use test_extremes, only: extremes_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed
@@ -32,6 +33,7 @@ program holosym_tests
     call run_suite("tables", tables_tests(), filter, passed, failed)
     call run_suite("speed", speed_tests(), filter, passed, failed)
     call run_suite("rattle", rattle_tests(), filter, passed, failed)
+    call run_suite("extremes", extremes_tests(), filter, passed, failed)
     write (summary, '(i0, " passed, ", i0, " failed")') passed, failed
     print '(a)', trim(summary)
     if (failed > 0) error stop 1
