@@ -358,7 +358,7 @@ contains
 
         max_m = size(result%min_gauss, 1)
         max_n = size(result%min_gauss, 2) - 1
-        write (unit, '(a)') "# holosym tables: system " // result%system // ", T = " // &
+        write (unit, '(a)') "### holosym tables: system " // result%system // ", T = " // &
             order_text(result%settings%span) // ", step sizes " // step_list(result)
         write (unit, '(a)') ""
         write (unit, '(a)') "Cells: measured order / paper's law, ok when within " // &
@@ -373,9 +373,9 @@ contains
             energy = i == 1
             write (unit, '(a)') ""
             if (energy) then
-                write (unit, '(a)') "## Table 1: order of the energy error, G = max(M, N) + 1"
+                write (unit, '(a)') "#### Table 1: order of the energy error, G = max(M, N) + 1"
             else
-                write (unit, '(a)') "## Table 1b: order of the global error of q(T), " // &
+                write (unit, '(a)') "#### Table 1b: order of the global error of q(T), " // &
                     "G = max(M, N) + 1"
             end if
             call write_grid_header(unit, max_n)
@@ -394,7 +394,7 @@ contains
         end do
 
         write (unit, '(a)') ""
-        write (unit, '(a)') "## Table 2: orders for M = N + 1 and G = M .. M + " // &
+        write (unit, '(a)') "#### Table 2: orders for M = N + 1 and G = M .. M + " // &
             int_str(extra_gauss) // " (energy; global)"
         write (unit, '(a)') ""
         line = "| N | M |"
@@ -419,7 +419,7 @@ contains
             " measured cells agree with the law; " // int_str(singular) // " singular."
 
         write (unit, '(a)') ""
-        write (unit, '(a)') "## Table 3: smallest G with a nonsingular Newton Jacobian " // &
+        write (unit, '(a)') "#### Table 3: smallest G with a nonsingular Newton Jacobian " // &
             "(paper: max(M, N) + 1)"
         write (unit, '(a)') ""
         write (unit, '(a)') "One step of h = " // step_text(trial_step) // " from the " // &

@@ -67,16 +67,9 @@ contains
         real(wp) :: scale, threshold, smallest, row(size(a, 2))
 
         n = size(a, 1)
-        info = 0
         if (present(pivot_ratio)) pivot_ratio = 0
-        if (size(a, 2) /= n) then
-            info = -1
-            return
-        end if
-        if (size(pivots) < n) then
-            info = -2
-            return
-        end if
+        info = argument_info(n, size(a, 2), size(pivots))
+        if (info /= 0) return
         if (n == 0) then
             if (present(pivot_ratio)) pivot_ratio = 1
             return
@@ -147,6 +140,18 @@ contains
         default_pivot_tolerance_dp = max(n, 1) * epsilon(1.0_dp)
     end function default_pivot_tolerance_dp
 
+    !> Argument check shared by the factorisations: -1 when A (rows x cols) is not square,
+    !! -2 when the pivot array is shorter than n, else 0.
+    pure integer function argument_info(rows, cols, pivot_count)
+        integer, intent(in) :: rows, cols, pivot_count
+        argument_info = 0
+        if (cols /= rows) then
+            argument_info = -1
+        else if (pivot_count < rows) then
+            argument_info = -2
+        end if
+    end function argument_info
+
     !> LU factorisation of a real64 matrix with LAPACK's dgetrf, with the same contract as
     !! `lu_factor`: `info` 0 success, -1 not square, -2 `pivots` too short, k > 0 when the
     !! k-th pivot is at most `tolerance * max|A|` (default n * epsilon(1.0_dp)).
@@ -160,16 +165,9 @@ contains
         real(dp) :: scale, threshold, smallest
 
         n = size(a, 1)
-        info = 0
         if (present(pivot_ratio)) pivot_ratio = 0
-        if (size(a, 2) /= n) then
-            info = -1
-            return
-        end if
-        if (size(pivots) < n) then
-            info = -2
-            return
-        end if
+        info = argument_info(n, size(a, 2), size(pivots))
+        if (info /= 0) return
         if (n == 0) then
             if (present(pivot_ratio)) pivot_ratio = 1
             return
