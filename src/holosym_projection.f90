@@ -156,7 +156,7 @@ contains
         type(projection_report_t), intent(inout) :: report
         type(holosym_status_t), intent(out) :: status
         real(wp) :: phi(sys%m), jac(sys%m, sys%n), gram(sys%m, sys%m), rhs(sys%m, 1)
-        real(wp) :: residual, previous, shift(sys%n), correction, last_correction
+        real(wp) :: residual, previous, shift(sys%n), last_correction
         integer :: pivots(sys%m), info, iter, growth, l
 
         previous = huge(1.0_wp)
@@ -201,24 +201,10 @@ contains
             shift = matmul(transpose(jac), rhs(:, 1))
             q = q - shift
             report%position_iterations = iter + 1
-            ! Newton's corrections shrink near a solution; growing ones mean divergence.
-            correction = maxval(abs(shift))
-            if (correction > last_correction) then
-                growth = growth + 1
-                if (growth >= max_growth) then
-                    call set_status(status, HOLOSYM_NEWTON_DIVERGED, "position projection " // &
-                        "diverged: the correction grew " // int_str(growth) // " times in a " &
-                        // "row to " // real_str(correction) // " (scaled max|phi| = " // &
-                        real_str(residual) // "); the state is too far from the manifold")
-                    return
-                end if
-            else
-                growth = 0
-            end if
-            last_correction = correction
-            if (.not. all(is_finite(q))) then
-                call set_status(status, HOLOSYM_NEWTON_DIVERGED, "position projection " // &
-                    "produced a non-finite q at iteration " // int_str(iter + 1))
+            call track_correction("position", "scaled max|phi|", maxval(abs(shift)), residual, &
+                q, iter + 1, last_correction, growth, status)
+            if (.not. status%ok()) then
+                status%message = status%message // "; the state is too far from the manifold"
                 return
             end if
         end do
@@ -236,7 +222,7 @@ contains
         type(holosym_status_t), intent(out) :: status
         real(wp) :: jac(sys%m, sys%n), hp(sys%n), hidden(sys%m), rhs(sys%m, 1)
         real(wp) :: hqq(sys%n, sys%n), hqp(sys%n, sys%n), hpp(sys%n, sys%n)
-        real(wp) :: reduced(sys%m, sys%m), residual, previous, shift(sys%n), correction
+        real(wp) :: reduced(sys%m, sys%m), residual, previous, shift(sys%n)
         real(wp) :: last_correction
         integer :: pivots(sys%m), info, iter, growth, l
 
@@ -284,27 +270,42 @@ contains
             shift = matmul(transpose(jac), rhs(:, 1))
             p = p - shift
             report%momentum_iterations = iter + 1
-            correction = maxval(abs(shift))
-            if (correction > last_correction) then
-                growth = growth + 1
-                if (growth >= max_growth) then
-                    call set_status(status, HOLOSYM_NEWTON_DIVERGED, "momentum projection " // &
-                        "diverged: the correction grew " // int_str(growth) // " times in a " &
-                        // "row to " // real_str(correction) // " (scaled max|Phi H_p| = " // &
-                        real_str(residual) // ")")
-                    return
-                end if
-            else
-                growth = 0
-            end if
-            last_correction = correction
-            if (.not. all(is_finite(p))) then
-                call set_status(status, HOLOSYM_NEWTON_DIVERGED, "momentum projection " // &
-                    "produced a non-finite p at iteration " // int_str(iter + 1))
-                return
-            end if
+            call track_correction("momentum", "scaled max|Phi H_p|", maxval(abs(shift)), &
+                residual, p, iter + 1, last_correction, growth, status)
+            if (.not. status%ok()) return
         end do
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine project_momenta
+
+    !> Divergence test shared by both stages: Newton's corrections shrink near a solution,
+    !! so `max_growth` growing ones in a row, or a non-finite iterate, mean divergence.
+    subroutine track_correction(stage, residual_name, correction, residual, x, iteration, &
+                                last_correction, growth, status)
+        character(len=*), intent(in) :: stage          !! "position" or "momentum"
+        character(len=*), intent(in) :: residual_name  !! what `residual` measures
+        real(wp), intent(in) :: correction   !! size of this iteration's correction
+        real(wp), intent(in) :: residual     !! scaled residual before it
+        real(wp), intent(in) :: x(:)         !! the new iterate
+        integer, intent(in) :: iteration     !! iteration number
+        real(wp), intent(inout) :: last_correction !! previous correction, updated
+        integer, intent(inout) :: growth     !! growing corrections in a row, updated
+        type(holosym_status_t), intent(inout) :: status !! HOLOSYM_NEWTON_DIVERGED on failure
+        if (correction > last_correction) then
+            growth = growth + 1
+        else
+            growth = 0
+        end if
+        last_correction = correction
+        if (growth >= max_growth) then
+            call set_status(status, HOLOSYM_NEWTON_DIVERGED, stage // " projection " // &
+                "diverged: the correction grew " // int_str(growth) // " times in a row to " // &
+                real_str(correction) // " (" // residual_name // " = " // real_str(residual) // ")")
+        else if (.not. all(is_finite(x))) then
+            call set_status(status, HOLOSYM_NEWTON_DIVERGED, stage // " projection produced " // &
+                "a non-finite iterate at iteration " // int_str(iteration))
+        else
+            call set_status(status, HOLOSYM_SUCCESS, "")
+        end if
+    end subroutine track_correction
 
 end module holosym_projection
