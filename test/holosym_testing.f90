@@ -8,11 +8,13 @@ module holosym_testing
     private
 
     public :: test_error_t, test_case_t, test_interface, new_test, run_suite
-    public :: check, check_close, check_status_code
+    public :: check, check_close, check_status_code, skip
 
-    !> A failed assertion: its message.
+    !> A failed assertion (or a skipped test): its message.
     type :: test_error_t
         character(len=:), allocatable :: message
+        !> True when the test did not run here (see `skip`), rather than failed.
+        logical :: skipped = .false.
     end type test_error_t
 
     abstract interface
@@ -56,6 +58,16 @@ contains
         end if
     end subroutine check_logical
 
+    !> Mark the test as skipped in this build, with the reason (counted apart from passes).
+    subroutine skip(error, reason)
+        type(test_error_t), allocatable, intent(inout) :: error !! failure record
+        character(len=*), intent(in) :: reason   !! why the test cannot run here
+        if (allocated(error)) return
+        allocate (error)
+        error%message = reason
+        error%skipped = .true.
+    end subroutine skip
+
     !> Fail unless |actual - expected| <= abs_tol + rel_tol |expected|.
     subroutine check_close(error, actual, expected, rel_tol, abs_tol, message)
         type(test_error_t), allocatable, intent(inout) :: error !! failure record
@@ -80,13 +92,14 @@ contains
 
     !> Run the tests of a suite whose "suite/name" contains `filter` (all when empty);
     !! print a line per test and add to the counters.
-    subroutine run_suite(suite, tests, filter, passed, failed)
+    subroutine run_suite(suite, tests, filter, passed, failed, skipped)
         use, intrinsic :: iso_fortran_env, only: output_unit
         character(len=*), intent(in) :: suite       !! suite name
         type(test_case_t), intent(in) :: tests(:)   !! its tests
         character(len=*), intent(in) :: filter      !! substring selecting tests
         integer, intent(inout) :: passed            !! count of passing tests
         integer, intent(inout) :: failed            !! count of failing tests
+        integer, intent(inout) :: skipped           !! count of tests skipped in this build
         type(test_error_t), allocatable :: error
         character(len=:), allocatable :: full_name
         integer :: i
@@ -95,6 +108,11 @@ contains
             if (len_trim(filter) > 0 .and. index(full_name, trim(filter)) == 0) cycle
             call tests(i)%run(error)
             if (allocated(error)) then
+                if (error%skipped) then
+                    skipped = skipped + 1
+                    write (output_unit, '(a)') "  skip " // full_name // ": " // error%message
+                    cycle
+                end if
                 failed = failed + 1
                 write (output_unit, '(a)') "  FAIL " // full_name // ": " // error%message
             else

@@ -259,7 +259,10 @@ contains
         call check(error, status%ok(), "T not a multiple of h is not an error")
         call check(error, config%steps == 3, "nint(1/0.3) = 3 steps")
         call check(error, index(config%note, "nint") > 0, "a note explains: " // config%note)
-        call parse_line("--T 1 --h 1e-4000", config, status)
+        ! T/h beyond the integer range: 1e-4000 underflows to 0 in real64 (then --h is
+        ! rejected as not > 0), so real64 uses the representable 1e-300 instead.
+        call parse_line("--T 1 --h " // trim(merge("1e-4000", "1e-300 ", &
+            precision(1.0_wp) >= 30)), config, status)
         call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "T/h overflow")
         call check(error, index(status%message, "--T") > 0 .and. &
             index(status%message, "--h") > 0, "overflow names --T and --h: " // status%message)

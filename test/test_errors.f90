@@ -22,6 +22,9 @@ module test_errors
     real(wp), parameter :: eps = epsilon(1.0_wp)
     !> Step size of the error tests (the paper's h = 1/8 for the pendulum).
     real(wp), parameter :: step_size = 0.125_wp
+    !> A barely-off-manifold offset: 1e5 times the manifold tolerance 1024 eps in both kinds
+    !! (1.9e-26 in real128, below the former 1e-25; 2.2e-8 in real64).
+    real(wp), parameter :: barely_off = 1.0e8_wp * eps
 
     !> Faults of `faulty_pendulum`.
     integer, parameter :: no_fault = 0
@@ -547,11 +550,11 @@ contains
         q = q0 * (1 + 1.0e-3_wp)
         call check_both_fail(error, integ, sys, q, p0, step_size, HOLOSYM_OFF_MANIFOLD, &
             "|q| = 1.001", "max|phi|")
-        ! 1e-25 relative is far below double precision but far above real128 round-off.
+        ! barely_off relative is tiny yet far above the manifold tolerance (1024 eps).
         q = q0
-        q(2) = q(2) * (1 + 1.0e-25_wp)
+        q(2) = q(2) * (1 + barely_off)
         call check_both_fail(error, integ, sys, q, p0, step_size, HOLOSYM_OFF_MANIFOLD, &
-            "|q| = 1 + 1e-25", "max|phi|")
+            "|q| = 1 + 1e8 eps", "max|phi|")
         ! The pendulum rod length is a parameter: a state on the unit sphere is off the
         ! manifold of a pendulum of length 2.
         sys = spherical_pendulum(length=2.0_wp)
@@ -571,9 +574,9 @@ contains
         p(3) = 0.1_wp
         call check_both_fail(error, integ, sys, q0, p, step_size, HOLOSYM_OFF_MANIFOLD, &
             "p_z = 0.1", "hidden")
-        p(3) = 1.0e-25_wp
+        p(3) = barely_off
         call check_both_fail(error, integ, sys, q0, p, step_size, HOLOSYM_OFF_MANIFOLD, &
-            "p_z = 1e-25", "hidden")
+            "p_z = 1e8 eps", "hidden")
     end subroutine off_manifold_velocity
 
     !> NaN or Inf in q or p: HOLOSYM_INVALID_ARGUMENT (a non-finite input value).

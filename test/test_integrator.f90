@@ -8,19 +8,37 @@ module test_integrator
     use holosym_integrator, only: constrained_integrator, step_info_t
     use holosym_models, only: spherical_pendulum, spring_linkage
     use holosym_linalg, only: lu_factor, lu_solve
-    use holosym_testing, only: test_case_t, new_test, test_error_t, check
+    use holosym_testing, only: test_case_t, new_test, test_error_t, check, skip
     implicit none
     private
     public :: integrator_tests
 
-    !> Constraint residuals after a step must be at this level (issue requirement).
-    real(wp), parameter :: constraint_bound = 1.0e-30_wp
+    real(wp), parameter :: eps = epsilon(1.0_wp)
+    !> Constraint residuals after a step must be at round-off: 5000 eps (9.6e-31 in real128,
+    !! within the issue's 1e-30; 1.1e-12 in real64).
+    real(wp), parameter :: constraint_bound = 5000 * eps
     !> Allowed deviation of a measured order from 2M.
     real(wp), parameter :: order_slack = 0.3_wp
-    !> Allowed change of the symplectic form on the manifold.
-    real(wp), parameter :: symplectic_bound = 1.0e-20_wp
-    !> Start-state tolerance for perturbed states (off the manifold by up to ~1e-11).
-    real(wp), parameter :: relaxed_manifold_tolerance = 1.0e-6_wp
+    !> Central-difference step: eps**(1/3) balances the O(delta**2) truncation against
+    !! round-off eps/delta (5.8e-12 in real128, 6.1e-6 in real64).
+    real(wp), parameter :: fd_delta = eps**(1.0_wp / 3)
+    !> Allowed change of the symplectic form on the manifold: a multiple of the central
+    !! difference accuracy eps**(2/3) (9.7e-21 in real128, within the former 1e-20).
+    real(wp), parameter :: symplectic_bound = 290 * eps**(2.0_wp / 3)
+    !> Start-state tolerance for perturbed states (off the manifold by up to ~fd_delta in the
+    !! negative control): 1e-6 in real128 as before, 1e3 fd_delta = 6e-3 in real64.
+    real(wp), parameter :: relaxed_manifold_tolerance = max(1.0e-6_wp, 1000 * fd_delta)
+    !> integrate and repeated step differ only in compensated-summation bits: 500 eps
+    !! (9.6e-32 in real128, within the former 1e-31).
+    real(wp), parameter :: driver_agreement = 500 * eps
+    !> Base step of the order-8 energy test: real128 keeps 0.25; in real64 the errors at
+    !! h = 0.25 sink to the round-off floor (~1e-15), so a larger step keeps them above
+    !! 1e-12 (real64 errors: 5.1e-7, 2.0e-9).
+    real(wp), parameter :: h_energy_m4 = merge(0.25_wp, 1.5_wp, precision(1.0_wp) >= 30)
+    !> Base step of the order-12 energy test (real128).
+    real(wp), parameter :: h_energy_m6 = 0.25_wp
+    !> True in the real128 build: order 12 is resolvable above round-off only there.
+    logical, parameter :: quad_precision = precision(1.0_wp) >= 30
     !> Time span of the order tests.
     real(wp), parameter :: order_span = 10
 
@@ -177,12 +195,18 @@ contains
 
     subroutine energy_order_4(error)
         type(test_error_t), allocatable, intent(out) :: error
-        call check_energy_order(error, 4, 3, 5, 0.25_wp)
+        call check_energy_order(error, 4, 3, 5, h_energy_m4)
     end subroutine energy_order_4
 
     subroutine energy_order_6(error)
         type(test_error_t), allocatable, intent(out) :: error
-        call check_energy_order(error, 6, 5, 7, 0.25_wp)
+        ! In real64 an order-12 error falls from pre-asymptotic (h >= 1) to round-off within
+        ! one halving, so no step pair measures it; the test runs in the real128 build only.
+        if (.not. quad_precision) then
+            call skip(error, "order 12 is not resolvable above real64 round-off")
+            return
+        end if
+        call check_energy_order(error, 6, 5, 7, h_energy_m6)
     end subroutine energy_order_6
 
     !> Order of the global error of q(T), each run compared with the same code at half the step:
@@ -292,8 +316,7 @@ contains
         logical, intent(in) :: tangent !! project u, v onto the manifold's tangent space
         real(wp), intent(out) :: defect
         type(holosym_status_t), intent(out) :: status
-        ! eps**(1/3) balances the O(delta**2) truncation against round-off eps/delta.
-        real(wp), parameter :: delta = 1.0e-11_wp
+        real(wp), parameter :: delta = fd_delta
         real(wp) :: q(sys%n), p(sys%n), x(2 * sys%n), u(2 * sys%n), v(2 * sys%n)
         real(wp) :: plus(2 * sys%n), minus(2 * sys%n), du(2 * sys%n), dv(2 * sys%n)
         integer :: seed_size
@@ -423,7 +446,7 @@ contains
         do k = 1, steps
             call integrator%step(sys, q2, p2, 0.25_wp, status=status)
         end do
-        call check(error, maxval(abs(q1 - q2)) + maxval(abs(p1 - p2)) <= 1.0e-31_wp, &
+        call check(error, maxval(abs(q1 - q2)) + maxval(abs(p1 - p2)) <= driver_agreement, &
             "integrate and step differ by " // &
             real_str(maxval(abs(q1 - q2)) + maxval(abs(p1 - p2))))
     end subroutine integrate_equals_steps
@@ -449,7 +472,7 @@ contains
             call warm%step(sys, q1, p1, 0.25_wp, status=status)
             call cold%step(sys, q2, p2, 0.25_wp, status=status)
         end do
-        call check(error, maxval(abs(q1 - q2)) + maxval(abs(p1 - p2)) <= 1.0e-30_wp, &
+        call check(error, maxval(abs(q1 - q2)) + maxval(abs(p1 - p2)) <= constraint_bound, &
             "warm and cold starts differ by " // real_str(maxval(abs(q1 - q2)) + &
             maxval(abs(p1 - p2))))
         warm_info = warm%last_step()

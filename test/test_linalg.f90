@@ -346,13 +346,16 @@ contains
     !> diag(1, 1e-20): fine with the default threshold, singular with tolerance 1e-10.
     subroutine tolerance_argument(error)
         type(test_error_t), allocatable, intent(out) :: error
+        !> A pivot far above the default threshold (2 eps) yet far below the explicit
+        !! tolerance 1e-10: 1e-20 in real128, 1e4 eps (2.2e-12) in real64.
+        real(wp), parameter :: small = max(1.0e-20_wp, 1.0e4_wp * eps)
         real(wp) :: a(2, 2), ratio
         integer :: pivots(2), info
-        a = reshape([1.0_wp, 0.0_wp, 0.0_wp, 1.0e-20_wp], [2, 2])
+        a = reshape([1.0_wp, 0.0_wp, 0.0_wp, small], [2, 2])
         call lu_factor(a, pivots, info, pivot_ratio=ratio)
         call check(error, info == 0, "default threshold: info = " // int_str(info))
-        call check_close(error, ratio, 1.0e-20_wp, eps, 0.0_wp, "pivot ratio of diag(1, 1e-20)")
-        a = reshape([1.0_wp, 0.0_wp, 0.0_wp, 1.0e-20_wp], [2, 2])
+        call check_close(error, ratio, small, eps, 0.0_wp, "pivot ratio of diag(1, small)")
+        a = reshape([1.0_wp, 0.0_wp, 0.0_wp, small], [2, 2])
         call lu_factor(a, pivots, info, tolerance=1.0e-10_wp, pivot_ratio=ratio)
         call check(error, info == 2, "tolerance 1e-10: info = " // int_str(info))
         call check(error, ratio == 0, "pivot_ratio must be 0 when singular")
