@@ -29,13 +29,13 @@ module holosym_integrator
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
-    use holosym_linalg, only: lu_factor
     use holosym_problem, only: constrained_hamiltonian
     use holosym_newton, only: newton_settings_t, newton_report_t, newton_solve, &
         newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
     use holosym_scheme, only: discrete_scheme, JACOBIAN_ASSEMBLED, &
         JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
-    use holosym_manifold, only: manifold_residuals, manifold_tolerance_default
+    use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, &
+        full_rank_constraints
     implicit none
     private
 
@@ -250,29 +250,6 @@ contains
             end if
         end if
     end subroutine validate
-
-    !> True when Phi(q) has full row rank m: the LU of Phi Phi^T (m x m) finds no pivot
-    !! below m epsilon relative, i.e. no singular value of Phi below ~sqrt(m epsilon) relative.
-    !! Otherwise `message` says which constraint is (nearly) dependent on the others.
-    function full_rank_constraints(sys, q, message) result(full_rank)
-        class(constrained_hamiltonian), intent(in) :: sys
-        real(wp), intent(in) :: q(:)
-        character(len=:), allocatable, intent(out) :: message
-        logical :: full_rank
-        real(wp) :: jac(sys%m, sys%n), gram(sys%m, sys%m)
-        integer :: pivots(sys%m), info
-        message = ""
-        full_rank = .true.
-        if (sys%m == 0) return
-        call sys%constraint_jacobian(q, jac)
-        if (.not. all(is_finite(jac))) return  ! reported as non-finite by the caller's checks
-        gram = matmul(jac, transpose(jac))
-        call lu_factor(gram, pivots, info)
-        full_rank = info == 0
-        if (.not. full_rank) message = "the constraint Jacobian Phi is rank deficient at q: " &
-            // "constraint " // int_str(info) // " of " // int_str(sys%m) // " is (nearly) " // &
-            "a combination of the others (pivot of Phi Phi^T below m epsilon)"
-    end function full_rank_constraints
 
     !> Zero the work counters `stats`.
     subroutine integrator_reset_statistics(self)

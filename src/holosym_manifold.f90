@@ -1,12 +1,14 @@
-!> The constraint manifold {phi(q) = 0, Phi(q) H_p(q, p) = 0}: residuals of a state,
-!! scaled so that a tolerance tied to epsilon means "at round-off level".
+!> The constraint manifold {phi(q) = 0, Phi(q) H_p(q, p) = 0}: residuals of a state, scaled
+!! so that a tolerance tied to epsilon means "at round-off level", and the rank test of Phi.
 module holosym_manifold
     use holosym_kinds, only: wp
     use holosym_problem, only: constrained_hamiltonian
+    use holosym_linalg, only: lu_factor
+    use holosym_status, only: int_str, is_finite
     implicit none
     private
 
-    public :: manifold_residuals
+    public :: manifold_residuals, full_rank_constraints
 
     !> Default tolerance on the scaled residuals: 2**10 epsilon, room for the round-off of
     !! evaluating phi and Phi H_p with a few hundred operations.
@@ -46,5 +48,28 @@ contains
                 abs(hidden(l)) / (1 + sum(abs(jac(l, :)) * abs(hp))))
         end do
     end subroutine manifold_residuals
+
+    !> True when Phi(q) has full row rank m: the LU of Phi Phi^T (m x m) finds no pivot
+    !! below m epsilon relative, i.e. no singular value of Phi below ~sqrt(m epsilon) relative.
+    !! Otherwise `message` says which constraint is (nearly) dependent on the others.
+    function full_rank_constraints(sys, q, message) result(full_rank)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q(:) !! coordinates (n)
+        character(len=:), allocatable, intent(out) :: message !! why not, or empty
+        logical :: full_rank
+        real(wp) :: jac(sys%m, sys%n), gram(sys%m, sys%m)
+        integer :: pivots(sys%m), info
+        message = ""
+        full_rank = .true.
+        if (sys%m == 0) return
+        call sys%constraint_jacobian(q, jac)
+        if (.not. all(is_finite(jac))) return  ! reported as non-finite by the caller's checks
+        gram = matmul(jac, transpose(jac))
+        call lu_factor(gram, pivots, info)
+        full_rank = info == 0
+        if (.not. full_rank) message = "the constraint Jacobian Phi is rank deficient at q: " &
+            // "constraint " // int_str(info) // " of " // int_str(sys%m) // " is (nearly) " // &
+            "a combination of the others (pivot of Phi Phi^T below m epsilon)"
+    end function full_rank_constraints
 
 end module holosym_manifold
