@@ -14,7 +14,8 @@ module holosym
     use holosym_problem, only: constrained_hamiltonian
     use holosym_newton, only: newton_settings_t, newton_report_t
     use holosym_scheme, only: unknown_count
-    use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, full_rank_constraints
+    use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, &
+        full_rank_constraints
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
     use holosym_projection, only: project_to_manifold, projection_report_t, &
