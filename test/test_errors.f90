@@ -599,69 +599,56 @@ contains
 
     ! ------------------------------------------------------------------ user procedures
 
-    !> dh_dq turns NaN once q_3 passes a threshold reached during Newton's iteration.
-    subroutine user_dh_dq_nan(error)
-        type(test_error_t), allocatable, intent(out) :: error
+    !> A faulty pendulum (see `new_faulty`) stepped with (M, N, G): both `step` and
+    !! `integrate` must fail with HOLOSYM_NONFINITE_VALUE and leave the state unchanged.
+    subroutine check_user_fault(error, fault, order_m, order_n, gauss_points, label, text, &
+                                threshold)
+        type(test_error_t), allocatable, intent(inout) :: error !! failure record
+        integer, intent(in) :: fault          !! which fault
+        integer, intent(in) :: order_m, order_n, gauss_points !! the scheme
+        character(len=*), intent(in) :: label !! description of the case
+        character(len=*), intent(in), optional :: text   !! required part of the message
+        real(wp), intent(in), optional :: threshold      !! q_3 threshold of "beyond" faults
         type(faulty_pendulum), target :: sys
         type(constrained_integrator) :: integ
         real(wp) :: q0(3), p0(3)
-        sys = new_faulty(dh_dq_nan_beyond, sqrt(2.0_wp) / 2 + 1.0e-9_wp)
+        sys = new_faulty(fault, threshold)
         call sys%initial_state(q0, p0)
-        call init_ok(error, integ, sys, 2, 1, 3)
+        call init_ok(error, integ, sys, order_m, order_n, gauss_points)
         call check_both_fail(error, integ, sys, q0, p0, step_size, HOLOSYM_NONFINITE_VALUE, &
-            "dh_dq NaN during Newton", "dh_dq")
+            label, text)
+    end subroutine check_user_fault
+
+    !> dh_dq turns NaN once q_3 passes a threshold reached during Newton's iteration.
+    subroutine user_dh_dq_nan(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        call check_user_fault(error, dh_dq_nan_beyond, 2, 1, 3, "dh_dq NaN during Newton", &
+            "dh_dq", sqrt(2.0_wp) / 2 + 1.0e-9_wp)
     end subroutine user_dh_dq_nan
 
     !> dh_dq is +Inf everywhere.
     subroutine user_dh_dq_inf(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(faulty_pendulum), target :: sys
-        type(constrained_integrator) :: integ
-        real(wp) :: q0(3), p0(3)
-        sys = new_faulty(dh_dq_inf_always)
-        call sys%initial_state(q0, p0)
-        call init_ok(error, integ, sys, 3, 2, 4)
-        call check_both_fail(error, integ, sys, q0, p0, step_size, HOLOSYM_NONFINITE_VALUE, &
-            "dh_dq Inf")
+        call check_user_fault(error, dh_dq_inf_always, 3, 2, 4, "dh_dq Inf")
     end subroutine user_dh_dq_inf
 
     !> dh_dp is +Inf everywhere (caught at the start state by the hidden constraint).
     subroutine user_dh_dp_inf(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(faulty_pendulum), target :: sys
-        type(constrained_integrator) :: integ
-        real(wp) :: q0(3), p0(3)
-        sys = new_faulty(dh_dp_inf_always)
-        call sys%initial_state(q0, p0)
-        call init_ok(error, integ, sys, 2, 1, 3)
-        call check_both_fail(error, integ, sys, q0, p0, step_size, HOLOSYM_NONFINITE_VALUE, &
-            "dh_dp Inf")
+        call check_user_fault(error, dh_dp_inf_always, 2, 1, 3, "dh_dp Inf")
     end subroutine user_dh_dp_inf
 
     !> phi is NaN everywhere.
     subroutine user_constraint_nan(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(faulty_pendulum), target :: sys
-        type(constrained_integrator) :: integ
-        real(wp) :: q0(3), p0(3)
-        sys = new_faulty(constraint_nan_always)
-        call sys%initial_state(q0, p0)
-        call init_ok(error, integ, sys, 2, 1, 3)
-        call check_both_fail(error, integ, sys, q0, p0, step_size, HOLOSYM_NONFINITE_VALUE, &
-            "phi NaN")
+        call check_user_fault(error, constraint_nan_always, 2, 1, 3, "phi NaN")
     end subroutine user_constraint_nan
 
     !> Phi turns NaN once q_3 passes a threshold reached during Newton's iteration.
     subroutine user_jacobian_nan(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(faulty_pendulum), target :: sys
-        type(constrained_integrator) :: integ
-        real(wp) :: q0(3), p0(3)
-        sys = new_faulty(jacobian_nan_beyond, sqrt(2.0_wp) / 2 + 1.0e-9_wp)
-        call sys%initial_state(q0, p0)
-        call init_ok(error, integ, sys, 2, 1, 3)
-        call check_both_fail(error, integ, sys, q0, p0, step_size, HOLOSYM_NONFINITE_VALUE, &
-            "Phi NaN during Newton", "constraint_jacobian")
+        call check_user_fault(error, jacobian_nan_beyond, 2, 1, 3, "Phi NaN during Newton", &
+            "constraint_jacobian", sqrt(2.0_wp) / 2 + 1.0e-9_wp)
     end subroutine user_jacobian_nan
 
     ! ------------------------------------------------------------------ Newton failures
