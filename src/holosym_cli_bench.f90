@@ -14,8 +14,9 @@ module holosym_cli_bench
     use holosym_benchmark, only: bench_row_t, bench_settings_t, reference_state, holosym_run, &
         sweep_holosym, sweep_rattle, variant_name, bench_span, competitor_seconds, &
         competitor_targets, bench_targets, variant_count
-    use holosym_cli_common, only: cli_argument_t, split_option, option_value, parse_integer, &
-        parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
+    use holosym_cli_common, only: parsed_command_proceeds, &
+        cli_argument_t, split_option, option_value, parse_integer, &
+        parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
     use holosym_cli_simulate, only: make_system
     implicit none
     private
@@ -589,16 +590,8 @@ contains
         integer :: unit, ios
 
         call parse_bench_options(args, options, status)
-        if (.not. status%ok()) then
-            write (err_unit, '(a)') "holosym bench: " // status%message
-            exit_code = EXIT_USAGE
-            return
-        end if
-        if (options%help) then
-            write (out_unit, '(a)') bench_help()
-            exit_code = EXIT_OK
-            return
-        end if
+        if (.not. parsed_command_proceeds("bench", status, options%help, bench_help(), &
+                                          out_unit, err_unit, exit_code)) return
         if (len(options%summarize) > 0) then
             dir = options%summarize
         else

@@ -12,7 +12,7 @@ module holosym_cli_common
 
     public :: cli_argument_t, command_arguments, split_words
     public :: split_option, option_value, parse_integer, parse_real
-    public :: fail, csv_real, csv_integer, join_lines
+    public :: fail, csv_real, csv_integer, join_lines, parsed_command_proceeds
 
     !> Exit code of a successful command.
     integer, parameter, public :: EXIT_OK = 0
@@ -277,5 +277,30 @@ contains
             text = text // trim(lines(i))
         end do
     end function join_lines
+
+    !> After parsing a command's options: on a parse failure write the message and a hint to
+    !! `err_unit` (exit 2); with --help write the help to `out_unit` (exit 0). True when the
+    !! command should go on and run.
+    logical function parsed_command_proceeds(command, status, help, help_text, out_unit, &
+                                             err_unit, exit_code) result(proceed)
+        character(len=*), intent(in) :: command   !! the command's name, for messages
+        type(holosym_status_t), intent(in) :: status !! outcome of the option parser
+        logical, intent(in) :: help               !! --help was given
+        character(len=*), intent(in) :: help_text !! the command's help
+        integer, intent(in) :: out_unit           !! unit for the help
+        integer, intent(in) :: err_unit           !! unit for the error
+        integer, intent(out) :: exit_code         !! EXIT_USAGE, EXIT_OK, or EXIT_OK to go on
+        proceed = .false.
+        exit_code = EXIT_OK
+        if (.not. status%ok()) then
+            write (err_unit, '(a)') "holosym " // command // ": " // status%message
+            write (err_unit, '(a)') "Run 'holosym " // command // " --help' for the options."
+            exit_code = EXIT_USAGE
+        else if (help) then
+            write (out_unit, '(a)') help_text
+        else
+            proceed = .true.
+        end if
+    end function parsed_command_proceeds
 
 end module holosym_cli_common

@@ -10,8 +10,9 @@ module holosym_cli_extremes
         high_order_row_t, run_high_order_study, large_step_cell_t, run_large_step_study, &
         stiff_cell_t, run_stiff_study, near_singular_cell_t, run_near_singular_study, &
         max_study_order, error_floor, paper_step
-    use holosym_cli_common, only: cli_argument_t, split_option, option_value, parse_integer, &
-        fail, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
+    use holosym_cli_common, only: parsed_command_proceeds, &
+        cli_argument_t, split_option, option_value, parse_integer, &
+        fail, join_lines, EXIT_OK, EXIT_FAILURE
     implicit none
     private
 
@@ -166,16 +167,8 @@ contains
         type(holosym_status_t) :: status
 
         call parse_extremes_options(args, options, status)
-        if (.not. status%ok()) then
-            write (err_unit, '(a)') "holosym extremes: " // status%message
-            exit_code = EXIT_USAGE
-            return
-        end if
-        if (options%help) then
-            write (out_unit, '(a)') extremes_help()
-            exit_code = EXIT_OK
-            return
-        end if
+        if (.not. parsed_command_proceeds("extremes", status, options%help, extremes_help(), &
+                                          out_unit, err_unit, exit_code)) return
         if (options%quick) then
             write (out_unit, '(a)') "# holosym extremes (quick)"
         else

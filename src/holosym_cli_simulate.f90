@@ -14,7 +14,8 @@ module holosym_cli_simulate
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_manifold, only: manifold_residuals
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
-    use holosym_cli_common, only: cli_argument_t, split_option, option_value, parse_integer, &
+    use holosym_cli_common, only: parsed_command_proceeds, &
+        cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
     implicit none
     private
@@ -568,14 +569,8 @@ contains
         type(holosym_status_t) :: status
 
         call parse_simulate_options(args, config, status)
-        if (.not. status%ok()) then
-            write (err_unit, '(a)') "holosym simulate: " // status%message
-            write (err_unit, '(a)') "Run 'holosym simulate --help' for the options."
-            exit_code = EXIT_USAGE
-        else if (config%help) then
-            write (out_unit, '(a)') simulate_help()
-            exit_code = EXIT_OK
-        else
+        if (parsed_command_proceeds("simulate", status, config%help, simulate_help(), &
+                                    out_unit, err_unit, exit_code)) then
             call run_simulate(config, out_unit, err_unit, status)
             if (status%ok()) then
                 exit_code = EXIT_OK

@@ -14,8 +14,9 @@ module holosym_cli_tables
     use holosym_linalg, only: default_pivot_tolerance
     use holosym_convergence, only: order_cell_t, study_settings_t, paper_order_law, &
         run_order_cells, minimum_gauss_points, reference_solution
-    use holosym_cli_common, only: cli_argument_t, split_option, option_value, parse_integer, &
-        parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
+    use holosym_cli_common, only: parsed_command_proceeds, &
+        cli_argument_t, split_option, option_value, parse_integer, &
+        parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
     use holosym_cli_simulate, only: make_system, system_names
     implicit none
     private
@@ -571,16 +572,8 @@ contains
         type(holosym_status_t) :: status
 
         call parse_tables_options(args, options, status)
-        if (.not. status%ok()) then
-            write (err_unit, '(a)') "holosym tables: " // status%message
-            exit_code = EXIT_USAGE
-            return
-        end if
-        if (options%help) then
-            write (out_unit, '(a)') tables_help()
-            exit_code = EXIT_OK
-            return
-        end if
+        if (.not. parsed_command_proceeds("tables", status, options%help, tables_help(), &
+                                          out_unit, err_unit, exit_code)) return
         call compute_tables(options, result, err_unit, status)
         if (status%ok()) call write_tables_markdown(result, out_unit)
         if (status%ok() .and. len(options%csv_dir) > 0) then
