@@ -10,13 +10,15 @@
 !! Two options make it cheaper without changing the solution (the residual is always
 !! evaluated in working precision and iterated to the same tolerance):
 !! - `settings%simplified`: keep the factorised Jacobian across iterations and, with a
-!!   `newton_workspace_t`, across solves, while the corrections contract by at least
-!!   `settings%contraction_limit` per iteration; refactor at the current iterate when not.
+!!   `newton_workspace_t`, across solves; refactor at the current iterate when that is
+!!   predicted to be cheaper (see `refactor_pays`) or the corrections contract by less
+!!   than `settings%contraction_limit` per iteration.
 !! - a workspace with `linear_solver = LINEAR_SOLVER_MIXED`: factor the (row-equilibrated)
 !!   Jacobian in real64 with LAPACK dgetrf and solve with dgetrs, i.e. iterative refinement
 !!   of the real128 residual. A Jacobian that is singular to real64 precision but not to
 !!   working precision falls back to the working-precision LU.
 module holosym_newton
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
         lu_solve_dp, default_pivot_tolerance_dp
@@ -71,6 +73,9 @@ module holosym_newton
         !> Simplified Newton refactors at the current iterate when a correction is larger
         !! than this fraction of the previous one.
         real(wp) :: contraction_limit = 0.05_wp
+        !> Simplified Newton: cost of a Jacobian and its factorisation, in residual
+        !! evaluations; refactoring is chosen when it is predicted to save more than this.
+        real(wp) :: jacobian_cost = 2
     end type newton_settings_t
 
     !> What happened in one Newton solve.
@@ -110,6 +115,9 @@ module holosym_newton
         logical :: prefer_fresh = .false.
         !> Solves since kept factors were last tried.
         integer :: fresh_streak = 0
+        !> Quadratic-convergence constant kappa learnt from fresh factors: a Jacobian taken
+        !! at distance e from the solution contracts by about kappa e (0: not known yet).
+        real(wp) :: kappa = 0
         real(wp), allocatable :: jac(:, :)     !! Jacobian, then its working-precision factors
         real(wp), allocatable :: rhs(:, :)     !! residual, then the correction (nx x 1)
         real(wp), allocatable :: guess(:)      !! the first guess, restored on failure
@@ -198,9 +206,10 @@ contains
         type(newton_report_t), intent(out) :: report
         type(newton_workspace_t), intent(inout) :: ws
         type(holosym_status_t), intent(inout), optional :: status
-        real(wp) :: correction, previous, tolerance, pivot_ratio, rate, row_max
+        real(wp) :: correction, previous, tolerance, pivot_ratio, rate, row_max, rate_floor
+        real(wp) :: fresh_correction
         real(dp) :: pivot_ratio_dp
-        integer :: info, iter, growth, nx, i
+        integer :: info, iter, growth, nx, i, factor_age
         logical :: plain, refactor, fresh, native_only
         type(holosym_status_t) :: eval_status
 
@@ -230,6 +239,9 @@ contains
         end if
         report%reused_factors = .not. refactor
         if (report%reused_factors) report%pivot_ratio = ws%factor_pivot_ratio
+        ! Iterations since the factors in use were computed (0: computed in an earlier solve).
+        factor_age = 0
+        fresh_correction = 0
         do iter = 1, settings%max_iterations
             report%iterations = iter
             report%residual_evaluations = iter
@@ -245,34 +257,47 @@ contains
                     call fail(eval_status%code, eval_status%message)
                     return
                 end if
-                if (.not. all_finite(ws%rhs(:, 1)) .or. .not. all_finite_matrix(ws%jac)) then
-                    call fail(HOLOSYM_NONFINITE_VALUE, "non-finite residual or Jacobian at " &
-                        // "Newton iteration " // int_str(iter))
+                if (.not. all_finite(ws%rhs(:, 1))) then
+                    call fail(HOLOSYM_NONFINITE_VALUE, "non-finite residual at Newton " // &
+                        "iteration " // int_str(iter))
                     return
                 end if
-                ! Row equilibration makes the pivot test independent of the equations' units;
-                ! scaling by powers of two is exact and needs no division.
-                do i = 1, nx
-                    row_max = maxval(abs(ws%jac(i, :)))
-                    if (row_max > 0) then
-                        ws%row_scale(i) = set_exponent(1.0_wp, 1 - exponent(row_max))
-                        ws%jac(i, :) = ws%jac(i, :) * ws%row_scale(i)
-                    else
-                        ws%row_scale(i) = 1
-                    end if
-                end do
                 report%factorizations = report%factorizations + 1
                 info = 1
                 ws%factors_in_dp = .false.
+                ! Mixed precision: check, equilibrate and factor the real64 copy (no
+                ! working-precision arithmetic on the n^2 entries).
                 if (.not. native_only) then
                     ws%jac_dp = real(ws%jac, dp)
-                    call lu_factor_dp(ws%jac_dp, ws%pivots, info, &
-                        max(real(tolerance, dp), default_pivot_tolerance_dp(nx)), pivot_ratio_dp)
-                    ws%factors_in_dp = info == 0
-                    pivot_ratio = real(pivot_ratio_dp, wp)
+                    if (all(ieee_is_finite(ws%jac_dp))) then
+                        call equilibrate_rows_dp(ws%jac_dp, ws%row_scale)
+                        call lu_factor_dp(ws%jac_dp, ws%pivots, info, &
+                            max(real(tolerance, dp), default_pivot_tolerance_dp(nx)), &
+                            pivot_ratio_dp)
+                        ws%factors_in_dp = info == 0
+                        pivot_ratio = real(pivot_ratio_dp, wp)
+                    end if
                 end if
-                ! Working precision: the plain path, or a matrix singular to real64.
-                if (info /= 0) call lu_factor(ws%jac, ws%pivots, info, tolerance, pivot_ratio)
+                if (.not. ws%factors_in_dp) then
+                    if (.not. all_finite_matrix(ws%jac)) then
+                        call fail(HOLOSYM_NONFINITE_VALUE, "non-finite Jacobian at Newton " // &
+                            "iteration " // int_str(iter))
+                        return
+                    end if
+                    ! Row equilibration makes the pivot test independent of the equations'
+                    ! units; scaling by powers of two is exact and needs no division.
+                    do i = 1, nx
+                        row_max = maxval(abs(ws%jac(i, :)))
+                        if (row_max > 0) then
+                            ws%row_scale(i) = set_exponent(1.0_wp, 1 - exponent(row_max))
+                            ws%jac(i, :) = ws%jac(i, :) * ws%row_scale(i)
+                        else
+                            ws%row_scale(i) = 1
+                        end if
+                    end do
+                    ! Working precision: the plain path, or a matrix singular to real64.
+                    call lu_factor(ws%jac, ws%pivots, info, tolerance, pivot_ratio)
+                end if
                 if (info /= 0) then
                     report%singular_pivot = info
                     report%pivot_ratio = 0
@@ -309,6 +334,15 @@ contains
             if (correction <= settings%tolerance) exit
             ! With contraction rate theta the remaining error is about theta/(1-theta) * dx.
             rate = correction / previous
+            ! Factors taken at x_k give a first correction ~ |x_k - x*| and then contract
+            ! by kappa |x_k - x*|: learn kappa from the second correction.
+            if (fresh) then
+                factor_age = 1
+                fresh_correction = correction
+            else if (factor_age > 0) then
+                factor_age = factor_age + 1
+                if (factor_age == 2 .and. rate < 1) ws%kappa = rate / fresh_correction
+            end if
             if (iter > 1 .and. rate < 1) then
                 if (rate / (1 - rate) * correction <= settings%tolerance) exit
             end if
@@ -332,10 +366,17 @@ contains
                     native_only = .true.
                     refactor = .true.
                 end if
-            else if (iter > 1 .and. rate > settings%contraction_limit) then
-                ! Stale factors (simplified Newton) that contract poorly: refactor here.
-                refactor = .true.
-                if (report%reused_factors) ws%prefer_fresh = .true.
+            else if (iter > 1) then
+                ! Simplified Newton: refactor here when the kept factors contract poorly or
+                ! fresh ones are predicted to need fewer evaluations in all.
+                if (ws%factors_in_dp) then
+                    rate_floor = real(epsilon(1.0_dp), wp) * nx
+                else
+                    rate_floor = eps * nx
+                end if
+                refactor = rate > settings%contraction_limit .or. refactor_pays(rate, &
+                    correction, ws%kappa, rate_floor, settings%tolerance, settings%jacobian_cost)
+                if (refactor .and. report%reused_factors) ws%prefer_fresh = .true.
             end if
             if (iter == settings%max_iterations) then
                 call fail(HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged after " // &
@@ -359,6 +400,48 @@ contains
         end subroutine fail
 
     end subroutine solve_core
+
+    !> Scale each row of a real64 matrix by a power of two so that its largest entry lies
+    !! in [1, 2) (exact; zero rows keep scale 1); the scales are returned in working precision.
+    pure subroutine equilibrate_rows_dp(a, row_scale)
+        real(dp), intent(inout) :: a(:, :)       !! matrix, scaled in place
+        real(wp), intent(out) :: row_scale(:)   !! scale of each row
+        real(dp) :: row_max
+        integer :: i
+        do i = 1, size(a, 1)
+            row_max = maxval(abs(a(i, :)))
+            if (row_max > 0) then
+                row_scale(i) = set_exponent(1.0_wp, 1 - exponent(row_max))
+                a(i, :) = a(i, :) * real(row_scale(i), dp)
+            else
+                row_scale(i) = 1
+            end if
+        end do
+    end subroutine equilibrate_rows_dp
+
+    !> Whether simplified Newton should refactor at the current iterate. With factors
+    !! contracting by `rate`, the error left after a correction of size `correction` is
+    !! e = rate/(1-rate) correction and reaching `tolerance` takes log(tolerance/e)/log(rate)
+    !! more residuals; fresh factors at this iterate would contract by about
+    !! max(kappa e, rate_floor) for the price of `jacobian_cost` residuals.
+    pure logical function refactor_pays(rate, correction, kappa, rate_floor, tolerance, &
+                                        jacobian_cost)
+        real(wp), intent(in) :: rate          !! contraction of the kept factors, > 0
+        real(wp), intent(in) :: correction    !! size of the last correction
+        real(wp), intent(in) :: kappa         !! quadratic-convergence constant (0: unknown)
+        real(wp), intent(in) :: rate_floor    !! best contraction the linear solver allows
+        real(wp), intent(in) :: tolerance     !! convergence tolerance on the correction
+        real(wp), intent(in) :: jacobian_cost !! Jacobian + factorisation, in residuals
+        real(wp) :: remaining, fresh_rate
+        refactor_pays = .false.
+        if (kappa <= 0 .or. rate <= 0 .or. rate >= 1) return
+        remaining = rate / (1 - rate) * correction
+        if (remaining <= tolerance) return
+        fresh_rate = max(kappa * remaining, rate_floor)
+        if (fresh_rate >= rate) return
+        refactor_pays = jacobian_cost + log(tolerance / remaining) / log(fresh_rate) &
+            < log(tolerance / remaining) / log(rate)
+    end function refactor_pays
 
     !> True when no entry is NaN or infinite (a comparison; no IEEE state handling).
     pure logical function all_finite(values)
