@@ -23,7 +23,7 @@ module holosym_benchmark
     !> Runs shorter than this (seconds) are repeated three times and the median is kept.
     real(real64), parameter :: short_run = 0.2_real64
     !> Option sets of the per-step comparison: 0 plain ... variant_count all fast.
-    integer, parameter :: variant_count = 7
+    integer, parameter :: variant_count = 9
     !> Error targets of the summary.
     real(wp), parameter :: bench_targets(6) = [1.0e-6_wp, 1.0e-10_wp, 1.0e-14_wp, &
         1.0e-18_wp, 1.0e-22_wp, 1.0e-26_wp]
@@ -102,7 +102,11 @@ contains
         case (5)
             name = "plain + mixed-precision LU"
         case (6)
+            name = "plain + mixed LU + real64 pre-solve"
+        case (7)
             name = "simplified + mixed + extrapolated (difference Hessians)"
+        case (8)
+            name = "fast without the real64 pre-solve"
         case default
             name = "fast: all options"
         end select
@@ -131,12 +135,21 @@ contains
         case (5)
             integ%linear_solver = "mixed"
         case (6)
+            integ%linear_solver = "mixed"
+            integ%newton%presolve = .true.
+        case (7)
             integ%newton%simplified = .true.
             integ%linear_solver = "mixed"
             integ%extrapolate = .true.
+        case (8)
+            integ%newton%simplified = .true.
+            integ%linear_solver = "mixed"
+            integ%extrapolate = .true.
+            integ%hessians = "user"
         case default
             integ%newton%simplified = .true.
             integ%linear_solver = "mixed"
+            integ%newton%presolve = .true.
             integ%extrapolate = .true.
             integ%hessians = "user"
         end select

@@ -97,6 +97,7 @@ contains
         ! The fast path gives the plain path's results to round-off (tested in test_speed).
         integrator%newton%simplified = .true.
         integrator%linear_solver = "mixed"
+        integrator%newton%presolve = .true.
         energy0 = sys%hamiltonian(q, p)
         do k = 1, nint(span / h)
             call integrator%step(sys, q, p, h, status=status)

@@ -13,6 +13,8 @@
 !!   iterations and steps while it contracts.
 !! - `linear_solver` (`'real128'` | `'mixed'`): factor in working precision, or in real64
 !!   with LAPACK dgetrf/dgetrs.
+!! - `newton%presolve` (`.false.` | `.true.`, with `'mixed'`): first iterate the residual
+!!   with the scheme's sums in real64 arithmetic, then refine in working precision.
 !! - `jacobian` (`'assembled'` | `'residual-differences'`): from second derivatives, or
 !!   differences of the residual.
 !! - `hessians` (`'user'` | `'differences'`): the system's `hessian` bindings, or differences
@@ -59,6 +61,8 @@ module holosym_integrator
         real(wp), allocatable :: lambda(:, :)
         !> Residual evaluations of the step (including residual-difference Jacobians).
         integer :: residual_evaluations = 0
+        !> Residual evaluations in real64 arithmetic (`newton%presolve`) of the step.
+        integer :: lowered_residual_evaluations = 0
         !> Jacobian evaluations (= LU factorisations) of the step.
         integer :: lu_factorizations = 0
         !> Calls of dh_dq or dh_dp in the step (difference Hessians count 6n each).
@@ -76,6 +80,8 @@ module holosym_integrator
         integer(int64) :: newton_iterations = 0
         !> Residual evaluations (including those of residual-difference Jacobians).
         integer(int64) :: residual_evaluations = 0
+        !> Residual evaluations in real64 arithmetic (`newton%presolve`).
+        integer(int64) :: lowered_residual_evaluations = 0
         !> Jacobian evaluations.
         integer(int64) :: jacobian_evaluations = 0
         !> LU factorisations (real128 or real64).
@@ -316,7 +322,7 @@ contains
         type(newton_report_t) :: report
         logical :: extrapolated
         integer :: order_m, order_n, gauss_points, l, iterations, factorizations
-        integer(int64) :: residuals0, gradients0, hessians0
+        integer(int64) :: residuals0, gradients0, hessians0, lowered0
 
         status%code = HOLOSYM_SUCCESS
         call apply_options(self, h, status)
@@ -324,6 +330,7 @@ contains
         residuals0 = self%scheme%counters%residuals
         gradients0 = self%scheme%counters%gradients
         hessians0 = self%scheme%counters%hessians
+        lowered0 = self%scheme%counters%lowered_residuals
         call self%scheme%set_step(sys, q, p, h)
         extrapolated = .false.
         if (self%extrapolate .and. self%have_last) then
@@ -415,10 +422,14 @@ contains
 
         !> Evaluations of this step from the scheme's counters.
         subroutine count_evaluations()
-            integer(int64) :: residuals, gradients, hessians
+            integer(int64) :: residuals, gradients, hessians, lowered
             residuals = self%scheme%counters%residuals - residuals0
             gradients = self%scheme%counters%gradients - gradients0
             hessians = self%scheme%counters%hessians - hessians0
+            lowered = self%scheme%counters%lowered_residuals - lowered0
+            self%last_info%lowered_residual_evaluations = int(lowered)
+            self%stats%lowered_residual_evaluations = self%stats%lowered_residual_evaluations &
+                + lowered
             self%last_info%residual_evaluations = int(residuals)
             self%last_info%gradient_evaluations = int(gradients)
             self%last_info%hessian_evaluations = int(hessians)

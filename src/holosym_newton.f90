@@ -7,8 +7,8 @@
 !! `settings%tolerance`; or the correction stops decreasing once below
 !! `settings%stagnation_level` (the round-off floor of the problem has been reached).
 !!
-!! Two options make it cheaper without changing the solution (the residual is always
-!! evaluated in working precision and iterated to the same tolerance):
+!! Three options make it cheaper without changing the solution (the final iterations
+!! always evaluate the residual in working precision, to the same tolerance):
 !! - `settings%simplified`: keep the factorised Jacobian across iterations and, with a
 !!   `newton_workspace_t`, across solves; refactor at the current iterate when that is
 !!   predicted to be cheaper (see `refactor_pays`) or the corrections contract by less
@@ -17,9 +17,12 @@
 !!   Jacobian in real64 with LAPACK dgetrf and solve with dgetrs, i.e. iterative refinement
 !!   of the real128 residual. A Jacobian that is singular to real64 precision but not to
 !!   working precision falls back to the working-precision LU.
+!! - `settings%presolve` (with the mixed solver): first iterate the system's
+!!   `residual_lowered` (real64 arithmetic, much cheaper than real128) to real64 accuracy,
+!!   then continue with the working-precision residual.
 module holosym_newton
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
-    use holosym_kinds, only: wp, dp
+    use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
         lu_solve_dp, default_pivot_tolerance_dp
     use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
@@ -45,6 +48,13 @@ module holosym_newton
     !> Simplified Newton: after kept factors proved too stale, later solves refactor at
     !! their first iterate; every this many solves the kept factors are tried again.
     integer, parameter :: retry_reuse_every = 8
+    !> The pre-solve (`settings%presolve`) stops when its corrections reach this size ...
+    real(wp), parameter :: lowered_tolerance = 64 * real(epsilon(1.0_dp), wp)
+    !> ... or stop decreasing below this one (real64 round-off of the lowered residual).
+    real(wp), parameter :: lowered_floor = sqrt(real(epsilon(1.0_dp), wp))
+    !> Cost of a lowered residual relative to a working-precision one (measured on the
+    !! models, roughly), for the refactoring decision of the pre-solve.
+    real(wp), parameter :: lowered_cost_ratio = 0.25_wp
 
     !> A square nonlinear system: extend it and implement `residual` and `jacobian`.
     type, abstract :: nonlinear_system
@@ -53,6 +63,9 @@ module holosym_newton
         procedure(residual_interface), deferred :: residual
         !> F'(x), size(x) x size(x).
         procedure(jacobian_interface), deferred :: jacobian
+        !> F(x) to real64 accuracy, cheaper than `residual`, for the pre-solve of
+        !! `settings%presolve` (default: `residual` itself).
+        procedure :: residual_lowered => default_residual_lowered
     end type nonlinear_system
 
     !> Knobs of Newton's method; the defaults derive from epsilon(1.0_wp).
@@ -76,6 +89,9 @@ module holosym_newton
         !> Simplified Newton: cost of a Jacobian and its factorisation, in residual
         !! evaluations; refactoring is chosen when it is predicted to save more than this.
         real(wp) :: jacobian_cost = 2
+        !> With the mixed linear solver: iterate `residual_lowered` (real64 arithmetic) to
+        !! real64 accuracy before the working-precision residual.
+        logical :: presolve = .false.
     end type newton_settings_t
 
     !> What happened in one Newton solve.
@@ -90,8 +106,10 @@ module holosym_newton
         integer :: singular_pivot = 0
         !> Jacobian evaluations and LU factorisations of this solve.
         integer :: factorizations = 0
-        !> Residual evaluations of this solve (= iterations).
+        !> Working-precision residual evaluations of this solve.
         integer :: residual_evaluations = 0
+        !> `residual_lowered` evaluations of the pre-solve.
+        integer :: lowered_evaluations = 0
         !> True when the solve started with the factors of an earlier solve.
         logical :: reused_factors = .false.
     end type newton_report_t
@@ -207,10 +225,10 @@ contains
         type(newton_workspace_t), intent(inout) :: ws
         type(holosym_status_t), intent(inout), optional :: status
         real(wp) :: correction, previous, tolerance, pivot_ratio, rate, row_max, rate_floor
-        real(wp) :: fresh_correction
+        real(wp) :: fresh_correction, target, cost
         real(dp) :: pivot_ratio_dp
-        integer :: info, iter, growth, nx, i, factor_age
-        logical :: plain, refactor, fresh, native_only
+        integer :: info, iter, growth, nx, i, factor_age, phase_iterations
+        logical :: plain, refactor, fresh, native_only, lowered, converged
         type(holosym_status_t) :: eval_status
 
         nx = size(x)
@@ -239,13 +257,21 @@ contains
         end if
         report%reused_factors = .not. refactor
         if (report%reused_factors) report%pivot_ratio = ws%factor_pivot_ratio
+        lowered = settings%presolve .and. ws%linear_solver == LINEAR_SOLVER_MIXED .and. &
+            .not. wp_is_double
         ! Iterations since the factors in use were computed (0: computed in an earlier solve).
         factor_age = 0
         fresh_correction = 0
+        phase_iterations = 0
         do iter = 1, settings%max_iterations
             report%iterations = iter
-            report%residual_evaluations = iter
-            call system%residual(x, ws%rhs(:, 1), eval_status)
+            if (lowered) then
+                report%lowered_evaluations = report%lowered_evaluations + 1
+                call system%residual_lowered(x, ws%rhs(:, 1), eval_status)
+            else
+                report%residual_evaluations = report%residual_evaluations + 1
+                call system%residual(x, ws%rhs(:, 1), eval_status)
+            end if
             if (.not. eval_status%ok()) then
                 call fail(eval_status%code, eval_status%message)
                 return
@@ -331,9 +357,13 @@ contains
                     "iteration " // int_str(iter))
                 return
             end if
-            if (correction <= settings%tolerance) exit
-            ! With contraction rate theta the remaining error is about theta/(1-theta) * dx.
+            ! The pre-solve stops at real64 accuracy; the working-precision phase follows.
+            target = settings%tolerance
+            if (lowered) target = lowered_tolerance
+            ! With contraction rate theta the remaining error is about theta/(1-theta) * dx
+            ! (previous = huge at the start of each phase: no rate yet).
             rate = correction / previous
+            phase_iterations = phase_iterations + 1
             ! Factors taken at x_k give a first correction ~ |x_k - x*| and then contract
             ! by kappa |x_k - x*|: learn kappa from the second correction.
             if (fresh) then
@@ -341,13 +371,36 @@ contains
                 fresh_correction = correction
             else if (factor_age > 0) then
                 factor_age = factor_age + 1
-                if (factor_age == 2 .and. rate < 1) ws%kappa = rate / fresh_correction
+                if (factor_age == 2 .and. phase_iterations > 1 .and. rate < 1) &
+                    ws%kappa = rate / fresh_correction
             end if
-            if (iter > 1 .and. rate < 1) then
-                if (rate / (1 - rate) * correction <= settings%tolerance) exit
+            converged = correction <= target
+            if (phase_iterations > 1 .and. rate < 1) then
+                converged = converged .or. rate / (1 - rate) * correction <= target
             end if
-            if (plain .or. fresh) then
-                if (correction >= previous .and. correction <= settings%stagnation_level) exit
+            if (lowered) then
+                ! Corrections no longer decreasing at this size: real64 round-off.
+                converged = converged .or. (correction >= previous .and. &
+                                            correction <= lowered_floor)
+            else if (plain .or. fresh) then
+                converged = converged .or. (correction >= previous .and. &
+                                            correction <= settings%stagnation_level)
+            end if
+            if (ws%factors_in_dp) then
+                rate_floor = real(epsilon(1.0_dp), wp) * nx
+            else
+                rate_floor = eps * nx
+            end if
+            if (converged .and. .not. lowered) exit
+            if (converged) then
+                ! End of the pre-solve: the working-precision phase may start with fresh
+                ! factors at this iterate when they are predicted to save residuals there.
+                lowered = .false.
+                growth = 0
+                if (settings%simplified .and. phase_iterations > 1) refactor = refactor .or. &
+                    refactor_pays(rate, correction, ws%kappa, rate_floor, settings%tolerance, &
+                                  settings%jacobian_cost)
+            else if (plain .or. fresh) then
                 if (correction > previous .and. correction > settings%stagnation_level) then
                     growth = growth + 1
                     if (growth >= settings%max_growth) then
@@ -364,24 +417,27 @@ contains
                 if (ws%factors_in_dp .and. iter >= mixed_rate_iteration .and. &
                     rate > mixed_rate_limit) then
                     native_only = .true.
+                    lowered = .false.
                     refactor = .true.
                 end if
-            else if (iter > 1) then
+            else if (phase_iterations > 1) then
                 ! Simplified Newton: refactor here when the kept factors contract poorly or
                 ! fresh ones are predicted to need fewer evaluations in all.
-                if (ws%factors_in_dp) then
-                    rate_floor = real(epsilon(1.0_dp), wp) * nx
-                else
-                    rate_floor = eps * nx
-                end if
+                cost = settings%jacobian_cost
+                if (lowered) cost = cost / lowered_cost_ratio
                 refactor = rate > settings%contraction_limit .or. refactor_pays(rate, &
-                    correction, ws%kappa, rate_floor, settings%tolerance, settings%jacobian_cost)
+                    correction, ws%kappa, rate_floor, target, cost)
                 if (refactor .and. report%reused_factors) ws%prefer_fresh = .true.
             end if
             if (iter == settings%max_iterations) then
                 call fail(HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged after " // &
                     int_str(iter) // " iterations (last correction " // real_str(correction) // ")")
                 return
+            end if
+            if (converged) then
+                previous = huge(1.0_wp)
+                phase_iterations = 0
+                cycle
             end if
             previous = correction
         end do
@@ -400,6 +456,15 @@ contains
         end subroutine fail
 
     end subroutine solve_core
+
+    !> Default `residual_lowered`: the working-precision residual.
+    subroutine default_residual_lowered(self, x, f, status)
+        class(nonlinear_system), intent(inout) :: self !! the system
+        real(wp), intent(in) :: x(:)   !! unknowns
+        real(wp), intent(out) :: f(:)  !! residual
+        type(holosym_status_t), intent(out) :: status !! failure of the evaluation
+        call self%residual(x, f, status)
+    end subroutine default_residual_lowered
 
     !> Scale each row of a real64 matrix by a power of two so that its largest entry lies
     !! in [1, 2) (exact; zero rows keep scale 1); the scales are returned in working precision.
@@ -439,8 +504,10 @@ contains
         if (remaining <= tolerance) return
         fresh_rate = max(kappa * remaining, rate_floor)
         if (fresh_rate >= rate) return
-        refactor_pays = jacobian_cost + log(tolerance / remaining) / log(fresh_rate) &
-            < log(tolerance / remaining) / log(rate)
+        ! Iteration counts need no working-precision logarithms (slow in real128).
+        refactor_pays = jacobian_cost + log(real(tolerance / remaining, dp)) &
+            / log(real(fresh_rate, dp)) < log(real(tolerance / remaining, dp)) &
+            / log(real(rate, dp))
     end function refactor_pays
 
     !> True when no entry is NaN or infinite (a comparison; no IEEE state handling).

@@ -14,7 +14,7 @@
 !! entries that are zero at every Gauss point and sums constant ones once.
 module holosym_scheme
     use, intrinsic :: iso_fortran_env, only: int64
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     use holosym_status, only: holosym_status_t, set_status, int_str, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_NONFINITE_VALUE
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
@@ -45,6 +45,8 @@ module holosym_scheme
     type, public :: scheme_counters_t
         !> Residual evaluations (including those of residual-difference Jacobians).
         integer(int64) :: residuals = 0
+        !> Residual evaluations in real64 arithmetic (`residual_lowered`).
+        integer(int64) :: lowered_residuals = 0
         !> Jacobian evaluations.
         integer(int64) :: jacobians = 0
         !> Calls of dh_dq or dh_dp (each counts one; difference Hessians add 6n per call).
@@ -52,6 +54,15 @@ module holosym_scheme
         !> Calls of hessian or constraint_hessian (user's or differences).
         integer(int64) :: hessians = 0
     end type scheme_counters_t
+
+    !> real64 copies of the tables and real64 workspace of `residual_lowered`.
+    type :: lowered_tables_t
+        real(dp), allocatable :: b(:, :), c(:, :), wb(:, :), wc(:, :)  ! as in the scheme
+        real(dp), allocatable :: sum_a(:), sca(:, :), sac(:, :), lobatto_weights(:)
+        real(dp), allocatable :: x(:), qa(:), pa(:), q(:), p(:)       ! nx, n, n, n, n
+        real(dp), allocatable :: hq(:, :), hp(:, :), d(:, :), f(:)    ! n x G, n x G, n x (0:M), nx
+        real(dp) :: h = 0
+    end type lowered_tables_t
 
     !> The scheme for one (M, N, G) and one problem size (n, m), with its workspace.
     !! Before a Newton solve, `set_step` binds the system, the start state and h.
@@ -96,6 +107,9 @@ module holosym_scheme
         ! Workspace of the last evaluation, reused by the Jacobian at the same x.
         real(wp), allocatable, private :: cached_x(:)
         logical, private :: cache_valid = .false.
+        ! The cached evaluation came from `residual_lowered` (real64 accuracy only).
+        logical, private :: cache_lowered = .false.
+        type(lowered_tables_t), private :: low
         real(wp), allocatable, private :: q_nodes(:, :)      ! n x (0:M)
         real(wp), allocatable, private :: q_gauss(:, :)      ! n x G
         real(wp), allocatable, private :: p_gauss(:, :)      ! n x G
@@ -121,6 +135,8 @@ module holosym_scheme
         procedure :: set_step => scheme_set_step
         !> Residual of the step equations.
         procedure :: residual => scheme_residual
+        !> The residual with the scheme's sums in real64 arithmetic (for a pre-solve).
+        procedure :: residual_lowered => scheme_residual_lowered
         !> Jacobian of the step equations.
         procedure :: jacobian => scheme_jacobian
         !> The trivial first guess (q_i = q_a, p_j = p_a, lambda = 0).
@@ -250,6 +266,23 @@ contains
             self%extrap_p(k, :) = lagrange_values(self%mom_nodes, 1 + self%mom_nodes(k))
         end do
 
+        ! Allocate first: assignment of an expression would make every lower bound 1.
+        allocate (self%low%b(gauss_points, 0:order_m), self%low%c(gauss_points, 0:order_n), &
+                  self%low%wb(gauss_points, 0:order_m), self%low%wc(gauss_points, 0:order_n), &
+                  self%low%sum_a(0:order_m), self%low%sca(0:order_n, order_m), &
+                  self%low%sac(0:order_m, 0:order_n), self%low%lobatto_weights(0:order_m))
+        self%low%b = real(self%b, dp)
+        self%low%c = real(self%c, dp)
+        self%low%wb = real(self%wb, dp)
+        self%low%wc = real(self%wc, dp)
+        self%low%sum_a = real(self%sum_a, dp)
+        self%low%sca = real(self%sca, dp)
+        self%low%sac = real(self%sac, dp)
+        self%low%lobatto_weights = real(self%lobatto_weights, dp)
+        allocate (self%low%x(self%nx), self%low%qa(n), self%low%pa(n), self%low%q(n), &
+                  self%low%p(n), self%low%hq(n, gauss_points), self%low%hp(n, gauss_points), &
+                  self%low%d(n, 0:order_m), self%low%f(self%nx))
+
         allocate (self%qa(n), self%pa(n), self%cached_x(self%nx))
         allocate (self%q_nodes(n, 0:order_m), self%d_values(n, 0:order_m))
         allocate (self%q_gauss(n, gauss_points))
@@ -280,6 +313,7 @@ contains
             self%end_hqq, self%end_hqp, self%end_hpp, self%d_block, self%end_product, &
             self%weights, self%pattern_qq, self%pattern_qp, self%pattern_pp, self%x_work, &
             self%f_plus, self%f_minus)
+        self%low = lowered_tables_t()
         self%cache_valid = .false.
     end subroutine release
 
@@ -296,6 +330,9 @@ contains
         self%pa = pa
         self%h = h
         self%cache_valid = .false.
+        self%low%qa = real(qa, dp)
+        self%low%pa = real(pa, dp)
+        self%low%h = real(h, dp)
         ! q_0 = q_a during the whole solve: its constraint Jacobian is evaluated once.
         self%q_nodes(:, 0) = qa
         if (self%m > 0) call sys%constraint_jacobian(qa, self%phi_jac(:, :, 0))
@@ -333,25 +370,28 @@ contains
         end if
     end function d_row_at
 
-    !> Evaluate the polynomials and the user's first derivatives at x (cached).
-    subroutine evaluate(self, x, status)
+    !> Evaluate the polynomials and the user's first derivatives at x (cached). With
+    !! `lowered_ok` an evaluation cached by `residual_lowered` at the same x is accepted.
+    subroutine evaluate(self, x, status, lowered_ok)
         class(discrete_scheme), intent(inout) :: self
         real(wp), intent(in) :: x(:)
         type(holosym_status_t), intent(out) :: status
+        logical, intent(in), optional :: lowered_ok
         integer :: n, m, g, i, j, l, base, mu0
         real(wp) :: coefficient
 
         status%code = HOLOSYM_SUCCESS
         if (self%cache_valid) then
-            if (all(x == self%cached_x)) return
+            if (all(x == self%cached_x)) then
+                if (.not. self%cache_lowered) return
+                if (present(lowered_ok)) then
+                    if (lowered_ok) return
+                end if
+            end if
         end if
         self%cache_valid = .false.
         n = self%n
         m = self%m
-        do i = 1, self%order_m
-            base = z_at(self, i)
-            self%q_nodes(:, i) = self%qa + x(base + 1:base + n)
-        end do
         do g = 1, self%gauss_points
             self%q_gauss(:, g) = self%qa
             do i = 1, self%order_m
@@ -365,26 +405,11 @@ contains
                 coefficient = self%c(g, j)
                 self%p_gauss(:, g) = self%p_gauss(:, g) + coefficient * x(base + 1:base + n)
             end do
-            call self%sys%dh_dq(self%q_gauss(:, g), self%p_gauss(:, g), self%hq_gauss(:, g))
-            call self%sys%dh_dp(self%q_gauss(:, g), self%p_gauss(:, g), self%hp_gauss(:, g))
-            if (.not. (all_finite(self%hq_gauss(:, g)) .and. all_finite(self%hp_gauss(:, g)))) then
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq or dh_dp returned a " // &
-                    "non-finite value at Gauss point " // int_str(g))
-                self%counters%gradients = self%counters%gradients + 2 * g
-                return
-            end if
+            call gauss_gradients(self, g, status)
+            if (.not. status%ok()) return
         end do
-        self%counters%gradients = self%counters%gradients + 2 * self%gauss_points
-        do i = 0, self%order_m
-            if (i >= 1 .and. m > 0) call self%sys%constraint_jacobian(self%q_nodes(:, i), &
-                                                                      self%phi_jac(:, :, i))
-            if (.not. all_finite_matrix(self%phi_jac(:, :, i))) then
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, &
-                    "constraint_jacobian returned " // &
-                    "a non-finite value at displacement node " // int_str(i))
-                return
-            end if
-        end do
+        call node_jacobians(self, x, status)
+        if (.not. status%ok()) return
         ! D_i = sum_a(i) p_a + sum_l SAC(i,l) w_l - h sum_g w_g B_gi Hq_g - wl_i Phi_i^T mu_i.
         do i = 0, self%order_m
             self%d_values(:, i) = self%sum_a(i) * self%pa
@@ -405,7 +430,102 @@ contains
         end do
         self%cached_x = x
         self%cache_valid = .true.
+        self%cache_lowered = .false.
     end subroutine evaluate
+
+    !> The user's gradients at Gauss point g (from q_gauss, p_gauss), checked.
+    subroutine gauss_gradients(self, g, status)
+        class(discrete_scheme), intent(inout) :: self
+        integer, intent(in) :: g
+        type(holosym_status_t), intent(out) :: status
+        status%code = HOLOSYM_SUCCESS
+        call self%sys%dh_dq(self%q_gauss(:, g), self%p_gauss(:, g), self%hq_gauss(:, g))
+        call self%sys%dh_dp(self%q_gauss(:, g), self%p_gauss(:, g), self%hp_gauss(:, g))
+        self%counters%gradients = self%counters%gradients + 2
+        if (.not. (all_finite(self%hq_gauss(:, g)) .and. all_finite(self%hp_gauss(:, g)))) then
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq or dh_dp returned a " // &
+                "non-finite value at Gauss point " // int_str(g))
+        end if
+    end subroutine gauss_gradients
+
+    !> Displacement nodes q_i = q_a + z_i and the constraint Jacobians there, checked.
+    subroutine node_jacobians(self, x, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:)
+        type(holosym_status_t), intent(out) :: status
+        integer :: i, base
+        status%code = HOLOSYM_SUCCESS
+        do i = 1, self%order_m
+            base = z_at(self, i)
+            self%q_nodes(:, i) = self%qa + x(base + 1:base + self%n)
+        end do
+        do i = 0, self%order_m
+            if (i >= 1 .and. self%m > 0) call self%sys%constraint_jacobian(self%q_nodes(:, i), &
+                                                                           self%phi_jac(:, :, i))
+            if (.not. all_finite_matrix(self%phi_jac(:, :, i))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+                    "constraint_jacobian returned " // &
+                    "a non-finite value at displacement node " // int_str(i))
+                return
+            end if
+        end do
+    end subroutine node_jacobians
+
+    !> `evaluate` with the polynomial and quadrature sums in real64 arithmetic; the user's
+    !! functions still see working-precision arguments. Accurate to real64 round-off.
+    subroutine evaluate_lowered(self, x, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:)
+        type(holosym_status_t), intent(out) :: status
+        integer :: n, m, g, i, j, l, base, mu0
+
+        status%code = HOLOSYM_SUCCESS
+        self%cache_valid = .false.
+        n = self%n
+        m = self%m
+        associate (low => self%low)
+            low%x = real(x, dp)
+            do g = 1, self%gauss_points
+                low%q = low%qa
+                do i = 1, self%order_m
+                    base = z_at(self, i)
+                    low%q = low%q + low%b(g, i) * low%x(base + 1:base + n)
+                end do
+                low%p = low%pa
+                do j = 0, self%order_n
+                    base = w_at(self, j)
+                    low%p = low%p + low%c(g, j) * low%x(base + 1:base + n)
+                end do
+                self%q_gauss(:, g) = real(low%q, wp)
+                self%p_gauss(:, g) = real(low%p, wp)
+                call gauss_gradients(self, g, status)
+                if (.not. status%ok()) return
+                low%hq(:, g) = real(self%hq_gauss(:, g), dp)
+                low%hp(:, g) = real(self%hp_gauss(:, g), dp)
+            end do
+            call node_jacobians(self, x, status)
+            if (.not. status%ok()) return
+            do i = 0, self%order_m
+                low%d(:, i) = low%sum_a(i) * low%pa
+                do l = 0, self%order_n
+                    base = w_at(self, l)
+                    low%d(:, i) = low%d(:, i) + low%sac(i, l) * low%x(base + 1:base + n)
+                end do
+                do g = 1, self%gauss_points
+                    low%d(:, i) = low%d(:, i) - (low%h * low%wb(g, i)) * low%hq(:, g)
+                end do
+                mu0 = mu_at(self, i)
+                do l = 1, m
+                    low%d(:, i) = low%d(:, i) - (low%lobatto_weights(i) * low%x(mu0 + l)) &
+                        * real(self%phi_jac(l, :, i), dp)
+                end do
+            end do
+            self%d_values = real(low%d, wp)
+        end associate
+        self%cached_x = x
+        self%cache_valid = .true.
+        self%cache_lowered = .true.
+    end subroutine evaluate_lowered
 
     !> Residual of the step equations at x (see the module header for the row order).
     subroutine scheme_residual(self, x, f, status)
@@ -441,7 +561,59 @@ contains
         end do
         row = d_row_at(self, 0)
         f(row + 1:row + n) = self%pa + self%d_values(:, 0)
-        row = (self%order_m + self%order_n + 1) * n
+        call constraint_rows(self, f, status)
+    end subroutine scheme_residual
+
+    !> `residual` with the scheme's sums in real64 arithmetic, from `evaluate_lowered`:
+    !! accurate to real64 round-off, for the first Newton iterations of a mixed-precision
+    !! solve. The constraint rows are evaluated as in `residual`.
+    subroutine scheme_residual_lowered(self, x, f, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:)   !! unknowns
+        real(wp), intent(out) :: f(:)  !! residual (real64 accuracy)
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        integer :: n, g, i, j, k, row, base, last_row
+
+        self%counters%lowered_residuals = self%counters%lowered_residuals + 1
+        call evaluate_lowered(self, x, status)
+        if (.not. status%ok()) return
+        n = self%n
+        associate (low => self%low)
+            do j = 0, self%order_n
+                row = j * n
+                low%f(row + 1:row + n) = 0
+                do k = 1, self%order_m
+                    base = z_at(self, k)
+                    low%f(row + 1:row + n) = low%f(row + 1:row + n) &
+                        + low%sca(j, k) * low%x(base + 1:base + n)
+                end do
+                do g = 1, self%gauss_points
+                    low%f(row + 1:row + n) = low%f(row + 1:row + n) &
+                        - (low%h * low%wc(g, j)) * low%hp(:, g)
+                end do
+            end do
+            do i = 1, self%order_m - 1
+                row = d_row_at(self, i)
+                low%f(row + 1:row + n) = low%d(:, i)
+            end do
+            row = d_row_at(self, 0)
+            low%f(row + 1:row + n) = low%pa + low%d(:, 0)
+            last_row = (self%order_m + self%order_n + 1) * n
+            f(1:last_row) = real(low%f(1:last_row), wp)
+        end associate
+        call constraint_rows(self, f, status)
+    end subroutine scheme_residual_lowered
+
+    !> The rows phi(q_i), i = 1..M, and Phi(q_M) H_p(q_M, D_M) of the residual, and the
+    !! finiteness check of the whole residual.
+    subroutine constraint_rows(self, f, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(inout) :: f(:)
+        type(holosym_status_t), intent(out) :: status
+        integer :: i, l, row, m
+        status%code = HOLOSYM_SUCCESS
+        m = self%m
+        row = (self%order_m + self%order_n + 1) * self%n
         do i = 1, self%order_m
             if (m > 0) call self%sys%constraint(self%q_nodes(:, i), f(row + 1:row + m))
             row = row + m
@@ -456,7 +628,7 @@ contains
             call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint or dh_dp returned a " // &
                 "non-finite value at a displacement node")
         end if
-    end subroutine scheme_residual
+    end subroutine constraint_rows
 
     !> Jacobian of the step equations at x: assembled from the second derivatives of H
     !! and phi (the system's own, or central differences of its gradients, as
@@ -580,7 +752,8 @@ contains
         integer :: n, m, mm, g, i, j, k, l, row, col, a
         logical :: any_varying_qq, any_varying_qp, any_varying_pp, finite
 
-        call evaluate(self, x, status)
+        ! A Jacobian at real64 accuracy suffices: it is only used to compute corrections.
+        call evaluate(self, x, status, lowered_ok=.true.)
         if (.not. status%ok()) return
         n = self%n
         m = self%m

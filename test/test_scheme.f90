@@ -1,7 +1,7 @@
 !> Tests of the scheme part of holosym: equation count, residual, Jacobian, solution.
 module test_scheme
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION
     use holosym_quadrature, only: gauss_lobatto, gauss_legendre
@@ -52,6 +52,8 @@ contains
             new_test("jacobian_matches_differences_pendulum", jacobian_fd_pendulum), &
             new_test("jacobian_matches_differences_linkage", jacobian_fd_linkage), &
             new_test("jacobian_independent_of_cache", jacobian_cache), &
+            new_test("lowered_residual_matches_to_real64", lowered_residual), &
+            new_test("lowered_evaluation_not_reused_by_residual", lowered_cache), &
             new_test("residual_zero_at_exact_polynomial_solution", residual_exact_solution), &
             new_test("residual_nonzero_off_solution", residual_off_solution), &
             new_test("newton_finds_exact_polynomial_solution", newton_exact_solution), &
@@ -503,6 +505,79 @@ contains
         call scheme%jacobian(y, warm, status)
         call check(error, any(cold /= warm), "Jacobian at a different x is unchanged (stale cache)")
     end subroutine jacobian_cache
+
+    !> residual_lowered (sums in real64) equals residual to real64 round-off, on both paper
+    !! systems and several orders, and is not identical to it in real128 (it is lowered).
+    subroutine lowered_residual(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spring_linkage), target :: linkage
+        type(spherical_pendulum), target :: sphere
+        real(wp) :: q6(6), p6(6), q3(3), p3(3)
+        linkage = spring_linkage()
+        call linkage%initial_state(q6, p6)
+        sphere = spherical_pendulum()
+        call sphere%initial_state(q3, p3)
+        call compare(linkage, q6, p6, 3, 2, 4)
+        call compare(sphere, q3, p3, 2, 1, 3)
+        call compare(sphere, q3, p3, 6, 5, 7)
+    contains
+        subroutine compare(sys, q, p, order_m, order_n, gauss_points)
+            class(constrained_hamiltonian), intent(in), target :: sys
+            real(wp), intent(in) :: q(:), p(:)
+            integer, intent(in) :: order_m, order_n, gauss_points
+            type(discrete_scheme) :: scheme
+            type(holosym_status_t) :: status
+            real(wp), allocatable :: x(:), exact(:), lowered(:)
+            real(wp) :: difference, size_f
+            call setup(error, scheme, sys, order_m, order_n, gauss_points, q, p, 0.5_wp)
+            if (allocated(error)) return
+            allocate (x(scheme%nx), exact(scheme%nx), lowered(scheme%nx))
+            call fixed_seed(11)
+            call random_number(x)
+            x = 1.0e-2_wp * (x - 0.5_wp)
+            call scheme%residual(x, exact, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "residual")
+            call scheme%residual_lowered(x, lowered, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "residual_lowered")
+            if (allocated(error)) return
+            difference = maxval(abs(exact - lowered))
+            size_f = max(maxval(abs(exact)), maxval(abs(p)), 1.0_wp)
+            call check(error, difference <= 1.0e3_wp * epsilon(1.0_dp) * size_f, &
+                orders_str(order_m, order_n, gauss_points) // ": lowered residual differs by " &
+                // real_str(difference))
+            if (precision(1.0_wp) > precision(1.0_dp)) call check(error, difference > 0, &
+                orders_str(order_m, order_n, gauss_points) // ": lowered residual is exact")
+        end subroutine compare
+    end subroutine lowered_residual
+
+    !> An evaluation cached by residual_lowered is not taken for the exact residual or the
+    !! increments at the same x: they equal those of a scheme that never lowered.
+    subroutine lowered_cache(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum), target :: sys
+        type(discrete_scheme) :: scheme, fresh
+        type(holosym_status_t) :: status
+        real(wp) :: q(3), p(3), dq(3), dp_(3), dq_fresh(3), dp_fresh(3)
+        real(wp), allocatable :: x(:), f(:), f_fresh(:)
+        sys = spherical_pendulum()
+        call sys%initial_state(q, p)
+        call setup(error, scheme, sys, 3, 2, 4, q, p, 0.25_wp)
+        call setup(error, fresh, sys, 3, 2, 4, q, p, 0.25_wp)
+        if (allocated(error)) return
+        allocate (x(scheme%nx), f(scheme%nx), f_fresh(scheme%nx))
+        call fixed_seed(12)
+        call random_number(x)
+        x = 1.0e-2_wp * x
+        call scheme%residual_lowered(x, f, status)
+        call scheme%residual(x, f, status)
+        call fresh%residual(x, f_fresh, status)
+        call check(error, all(f == f_fresh), "residual after residual_lowered differs")
+        call scheme%residual_lowered(x, f, status)
+        call scheme%increments(x, dq, dp_, status)
+        call fresh%increments(x, dq_fresh, dp_fresh, status)
+        call check(error, all(dq == dq_fresh) .and. all(dp_ == dp_fresh), &
+            "increments after residual_lowered differ")
+    end subroutine lowered_cache
 
     ! ------------------------------------------------------------------ exact solutions
 

@@ -2,7 +2,7 @@
 !! the same states as the plain path (full Newton, real128 LU, difference Hessians, fresh
 !! first guess each step) to 1e-30, and the work counters show the savings.
 module test_speed
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SINGULAR_MATRIX
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
@@ -24,7 +24,9 @@ module test_speed
     real(wp), parameter :: hessian_agreement = 100 * epsilon(1.0_wp)**(2.0_wp / 3)
     !> Option sets compared with the plain path: simplified, linear solver, jacobian,
     !! hessians, extrapolate.
-    integer, parameter :: variant_count = 7
+    integer, parameter :: variant_count = 9
+    !> The option set with every fast option but the real64 pre-solve.
+    integer, parameter :: fast_without_presolve = 8
 
 contains
 
@@ -42,7 +44,8 @@ contains
             new_test("unknown_option_values_rejected", unknown_options), &
             new_test("mixed_solver_detects_singular_jacobian", mixed_singular), &
             new_test("simplified_survives_step_size_change", simplified_step_change), &
-            new_test("simplified_refactors_when_it_pays", simplified_refactor_policy) &
+            new_test("simplified_refactors_when_it_pays", simplified_refactor_policy), &
+            new_test("presolve_saves_working_precision_residuals", presolve_saves) &
         ]
     end function speed_tests
 
@@ -78,7 +81,18 @@ contains
             integ%newton%simplified = .true.
             integ%linear_solver = "mixed"
             label = "simplified + mixed"
+        case (7)
+            integ%linear_solver = "mixed"
+            integ%newton%presolve = .true.
+            label = "mixed + real64 pre-solve"
+        case (fast_without_presolve)
+            integ%newton%simplified = .true.
+            integ%linear_solver = "mixed"
+            integ%hessians = "user"
+            integ%extrapolate = .true.
+            label = "all fast options but the pre-solve"
         case default
+            integ%newton%presolve = .true.
             integ%newton%simplified = .true.
             integ%linear_solver = "mixed"
             integ%hessians = "user"
@@ -358,7 +372,7 @@ contains
         sys = spherical_pendulum()
         call sys%initial_state(q, p)
         call integ%init(sys, 6, 5, 7, status)
-        call configure(integ, variant_count, label)
+        call configure(integ, fast_without_presolve, label)
         call integ%integrate(sys, q, p, 10.0_wp / steps, steps, status=status)
         call check_status_code(error, status%code, HOLOSYM_SUCCESS, "(6,5,7), h = 5/7")
         if (allocated(error)) return
@@ -368,5 +382,42 @@ contains
         call check(error, integ%stats%lu_factorizations <= 3 * steps, "factorisations " // &
             int_str(int(integ%stats%lu_factorizations)) // " > 3 per step")
     end subroutine simplified_refactor_policy
+
+    !> The real64 pre-solve leaves at most three working-precision residuals per step at a
+    !! large step (5.6 without it), and only acts in a real128 build with the mixed solver.
+    subroutine presolve_saves(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum) :: sys
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        character(len=:), allocatable :: label
+        real(wp) :: q(3), p(3), per_step
+        integer, parameter :: steps = 14
+        sys = spherical_pendulum()
+        call sys%initial_state(q, p)
+        call integ%init(sys, 6, 5, 7, status)
+        call configure(integ, variant_count, label)
+        call integ%integrate(sys, q, p, 10.0_wp / steps, steps, status=status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "(6,5,7), h = 5/7")
+        if (allocated(error)) return
+        per_step = real(integ%stats%residual_evaluations, wp) / steps
+        if (precision(1.0_wp) > precision(1.0_dp)) then
+            call check(error, per_step <= 3, "working-precision residuals per step " // &
+                real_str(per_step) // " > 3")
+            call check(error, integ%stats%lowered_residual_evaluations >= steps, &
+                "lowered residuals: " // int_str(int(integ%stats%lowered_residual_evaluations)))
+        else
+            call check(error, integ%stats%lowered_residual_evaluations == 0, &
+                "the real64 build has nothing to lower")
+        end if
+        call sys%initial_state(q, p)
+        call integ%init(sys, 6, 5, 7, status)
+        call configure(integ, variant_count, label)
+        integ%linear_solver = "real128"
+        call integ%integrate(sys, q, p, 10.0_wp / steps, steps, status=status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "pre-solve, real128 LU")
+        call check(error, integ%stats%lowered_residual_evaluations == 0, &
+            "pre-solve acted without the mixed solver")
+    end subroutine presolve_saves
 
 end module test_speed
