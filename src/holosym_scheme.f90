@@ -97,6 +97,11 @@ module holosym_scheme
         real(wp), allocatable, private :: sbc(:, :)     ! (0:M, 0:N) sum_g w_g B_gi C_gl
         real(wp), allocatable, private :: wb(:, :)      ! (G, 0:M) w_g B_gi
         real(wp), allocatable, private :: wc(:, :)      ! (G, 0:N) w_g C_gj
+        ! Products of weights and basis values, per Gauss point (Jacobian assembly).
+        real(wp), allocatable, private :: wcb(:, :, :)  ! (G, 0:N, 1:M) w_g C_gj B_gk
+        real(wp), allocatable, private :: wcc(:, :, :)  ! (G, 0:N, 0:N) w_g C_gj C_gl
+        real(wp), allocatable, private :: wbb(:, :, :)  ! (G, 0:M, 1:M) w_g B_gi B_gk
+        real(wp), allocatable, private :: wbc(:, :, :)  ! (G, 0:M, 0:N) w_g B_gi C_gl
         ! Extrapolation to the next step of equal size: rho_i(1 + d_k), chi_j(1 + c_l).
         real(wp), allocatable, private :: extrap_q(:, :) ! (0:M node k, 0:M basis i)
         real(wp), allocatable, private :: extrap_p(:, :) ! (0:N node l, 0:N basis j)
@@ -125,7 +130,6 @@ module holosym_scheme
         real(wp), allocatable, private :: end_hqq(:, :), end_hqp(:, :), end_hpp(:, :)
         real(wp), allocatable, private :: d_block(:, :)     ! n x nx: dD_M/dx
         real(wp), allocatable, private :: end_product(:, :) ! m x n: Phi_M hpp_end
-        real(wp), allocatable, private :: weights(:)        ! G
         integer, allocatable, private :: pattern_qq(:, :), pattern_qp(:, :), pattern_pp(:, :)
         real(wp), allocatable, private :: x_work(:), f_plus(:), f_minus(:) ! nx
     contains
@@ -258,6 +262,26 @@ contains
                 self%sbc(i, j) = sum(self%wb(:, i) * self%c(:, j))
             end do
         end do
+        allocate (self%wcb(gauss_points, 0:order_n, order_m), &
+                  self%wcc(gauss_points, 0:order_n, 0:order_n), &
+                  self%wbb(gauss_points, 0:order_m, order_m), &
+                  self%wbc(gauss_points, 0:order_m, 0:order_n))
+        do j = 0, order_n
+            do k = 1, order_m
+                self%wcb(:, j, k) = self%wc(:, j) * self%b(:, k)
+            end do
+            do k = 0, order_n
+                self%wcc(:, j, k) = self%wc(:, j) * self%c(:, k)
+            end do
+        end do
+        do i = 0, order_m
+            do k = 1, order_m
+                self%wbb(:, i, k) = self%wb(:, i) * self%b(:, k)
+            end do
+            do k = 0, order_n
+                self%wbc(:, i, k) = self%wb(:, i) * self%c(:, k)
+            end do
+        end do
         allocate (self%extrap_q(0:order_m, 0:order_m), self%extrap_p(0:order_n, 0:order_n))
         do k = 0, order_m
             self%extrap_q(k, :) = lagrange_values(self%disp_nodes, 1 + self%disp_nodes(k))
@@ -292,7 +316,7 @@ contains
         allocate (self%hqq(n, n, gauss_points), self%hqp(n, n, gauss_points), &
                   self%hpp(n, n, gauss_points), self%phi_hess(n, n, m, order_m), &
                   self%end_hqq(n, n), self%end_hqp(n, n), self%end_hpp(n, n), &
-                  self%d_block(n, self%nx), self%end_product(m, n), self%weights(gauss_points))
+                  self%d_block(n, self%nx), self%end_product(m, n))
         allocate (self%pattern_qq(n, n), self%pattern_qp(n, n), self%pattern_pp(n, n))
         allocate (self%x_work(self%nx), self%f_plus(self%nx), self%f_minus(self%nx))
         self%cache_valid = .false.
@@ -305,13 +329,14 @@ contains
         if (allocated(self%disp_nodes)) deallocate (self%disp_nodes, self%lobatto_weights, &
             self%mom_nodes, self%gauss_nodes, self%gauss_weights, self%b, self%a, self%c)
         if (allocated(self%wb)) deallocate (self%wb, self%wc, self%sum_a, self%sca, self%scb, &
-            self%scc, self%sac, self%sbb, self%sbc, self%extrap_q, self%extrap_p)
+            self%scc, self%sac, self%sbb, self%sbc, self%extrap_q, self%extrap_p, self%wcb, &
+            self%wcc, self%wbb, self%wbc)
         if (allocated(self%qa)) deallocate (self%qa, self%pa, self%cached_x, self%q_nodes, &
             self%d_values, self%q_gauss, self%p_gauss, self%hq_gauss, self%hp_gauss, &
             self%phi_jac, self%velocity, self%q_work, self%phi_work)
         if (allocated(self%hqq)) deallocate (self%hqq, self%hqp, self%hpp, self%phi_hess, &
             self%end_hqq, self%end_hqp, self%end_hpp, self%d_block, self%end_product, &
-            self%weights, self%pattern_qq, self%pattern_qp, self%pattern_pp, self%x_work, &
+            self%pattern_qq, self%pattern_qp, self%pattern_pp, self%x_work, &
             self%f_plus, self%f_minus)
         self%low = lowered_tables_t()
         self%cache_valid = .false.
@@ -750,7 +775,7 @@ contains
         real(wp), intent(out) :: jac(:, :)
         type(holosym_status_t), intent(out) :: status
         integer :: n, m, mm, g, i, j, k, l, row, col, a
-        logical :: any_varying_qq, any_varying_qp, any_varying_pp, finite
+        logical :: finite
 
         ! A Jacobian at real64 accuracy suffices: it is only used to compute corrections.
         call evaluate(self, x, status, lowered_ok=.true.)
@@ -790,9 +815,6 @@ contains
         call classify(self%hqq, self%pattern_qq)
         call classify(self%hqp, self%pattern_qp)
         call classify(self%hpp, self%pattern_pp)
-        any_varying_qq = any(self%pattern_qq == entry_varying)
-        any_varying_qp = any(self%pattern_qp == entry_varying)
-        any_varying_pp = any(self%pattern_pp == entry_varying)
 
         jac = 0
         ! R_p,j = sum_k SCA(j,k) z_k - h sum_g w_g C_gj H_p(Q_g, P_g).
@@ -803,14 +825,12 @@ contains
                 do a = 1, n
                     jac(row + a, col + a) = jac(row + a, col + a) + self%sca(j, k)
                 end do
-                if (any_varying_qp) self%weights = self%wc(:, j) * self%b(:, k)
-                call add_hessian_block(jac, row, col, -self%h, self%weights, self%scb(j, k), &
+                call add_hessian_block(jac, row, col, -self%h, self%wcb(:, j, k), self%scb(j, k), &
                                        self%hqp, self%pattern_qp, .true.)
             end do
             do l = 0, self%order_n
                 col = w_at(self, l)
-                if (any_varying_pp) self%weights = self%wc(:, j) * self%c(:, l)
-                call add_hessian_block(jac, row, col, -self%h, self%weights, self%scc(j, l), &
+                call add_hessian_block(jac, row, col, -self%h, self%wcc(:, j, l), self%scc(j, l), &
                                        self%hpp, self%pattern_pp, .false.)
             end do
         end do
@@ -873,8 +893,7 @@ contains
             integer :: k, l, col, a, b
             do k = 1, mm
                 col = z_at(self, k)
-                if (any_varying_qq) self%weights = self%wb(:, i) * self%b(:, k)
-                call add_hessian_block(target, row, col, -self%h, self%weights, &
+                call add_hessian_block(target, row, col, -self%h, self%wbb(:, i, k), &
                                        self%sbb(i, k), self%hqq, self%pattern_qq, .false.)
             end do
             if (i >= 1) then
@@ -894,8 +913,7 @@ contains
                 do a = 1, n
                     target(row + a, col + a) = target(row + a, col + a) + self%sac(i, l)
                 end do
-                if (any_varying_qp) self%weights = self%wb(:, i) * self%c(:, l)
-                call add_hessian_block(target, row, col, -self%h, self%weights, &
+                call add_hessian_block(target, row, col, -self%h, self%wbc(:, i, l), &
                                        self%sbc(i, l), self%hqp, self%pattern_qp, .false.)
             end do
             col = mu_at(self, i)
