@@ -5,8 +5,11 @@
 !! magnitude is at most `tolerance * max|A|` (default `default_pivot_tolerance(n)` =
 !! n * epsilon) marks the matrix as singular to working precision.
 !!
-!! `lu_factor_dp`/`lu_solve_dp` are the real64 counterparts: they call LAPACK's
-!! dgetrf/dgetrs through explicit interfaces with real64 arrays (never real128 data).
+!! `lu_factor_dp`/`lu_solve_dp` are the real64 counterparts: they call LAPACK
+!! (dgetf2/dgetrf, dlaswp + BLAS dtrsv, dgetrs) through explicit interfaces with real64
+!! arrays (never real128 data). For the small matrices of a step the unblocked dgetf2
+!! and the level-2 dtrsv are 1.3-2.5x faster than dgetrf/dgetrs with reference
+!! LAPACK/BLAS (measured for n = 15..93), so they are used below `blocked_lu_size`.
 !! Newton uses them for mixed precision (a real64 factorisation, real128 residuals) and,
 !! in the real64 build, for everything.
 module holosym_linalg
@@ -17,7 +20,46 @@ module holosym_linalg
     public :: lu_factor, lu_solve, default_pivot_tolerance
     public :: lu_factor_dp, lu_solve_dp, default_pivot_tolerance_dp
 
+    !> From this order on `lu_factor_dp` uses the blocked dgetrf instead of dgetf2.
+    integer, parameter :: blocked_lu_size = 128
+
     interface
+        !> LAPACK: unblocked LU factorisation of a real64 general matrix.
+        subroutine dgetf2(m, n, a, lda, ipiv, info)
+            import :: dp
+            integer, intent(in) :: m      !! rows
+            integer, intent(in) :: n      !! columns
+            integer, intent(in) :: lda    !! leading dimension of a
+            real(dp), intent(inout) :: a(lda, *) !! matrix in, factors out
+            integer, intent(out) :: ipiv(*)     !! pivot indices
+            integer, intent(out) :: info        !! 0, -i bad argument i, i > 0 zero pivot
+        end subroutine dgetf2
+
+        !> LAPACK: row interchanges of a matrix.
+        subroutine dlaswp(n, a, lda, k1, k2, ipiv, incx)
+            import :: dp
+            integer, intent(in) :: n      !! columns of a
+            integer, intent(in) :: lda    !! leading dimension of a
+            real(dp), intent(inout) :: a(lda, *) !! matrix, rows interchanged in place
+            integer, intent(in) :: k1     !! first interchange to apply
+            integer, intent(in) :: k2     !! last interchange to apply
+            integer, intent(in) :: ipiv(*)      !! pivot indices
+            integer, intent(in) :: incx   !! 1: apply k1..k2 in order
+        end subroutine dlaswp
+
+        !> BLAS: triangular solve with one right-hand side.
+        subroutine dtrsv(uplo, trans, diag, n, a, lda, x, incx)
+            import :: dp
+            character(len=1), intent(in) :: uplo  !! 'L' or 'U'
+            character(len=1), intent(in) :: trans !! 'N': A x = b
+            character(len=1), intent(in) :: diag  !! 'U': unit diagonal, 'N' not
+            integer, intent(in) :: n      !! order
+            integer, intent(in) :: lda    !! leading dimension of a
+            real(dp), intent(in) :: a(lda, *)   !! triangular matrix
+            real(dp), intent(inout) :: x(*)     !! right-hand side in, solution out
+            integer, intent(in) :: incx   !! stride of x
+        end subroutine dtrsv
+
         !> LAPACK: LU factorisation of a real64 general matrix.
         subroutine dgetrf(m, n, a, lda, ipiv, info)
             import :: dp
@@ -152,7 +194,8 @@ contains
         end if
     end function argument_info
 
-    !> LU factorisation of a real64 matrix with LAPACK's dgetrf, with the same contract as
+    !> LU factorisation of a real64 matrix with LAPACK's dgetf2 (dgetrf for n >= 128), with
+    !! the same contract as
     !! `lu_factor`: `info` 0 success, -1 not square, -2 `pivots` too short, k > 0 when the
     !! k-th pivot is at most `tolerance * max|A|` (default n * epsilon(1.0_dp)).
     subroutine lu_factor_dp(a, pivots, info, tolerance, pivot_ratio)
@@ -178,7 +221,11 @@ contains
         else
             threshold = default_pivot_tolerance_dp(n) * scale
         end if
-        call dgetrf(n, n, a, size(a, 1), pivots, lapack_info)
+        if (n < blocked_lu_size) then
+            call dgetf2(n, n, a, size(a, 1), pivots, lapack_info)
+        else
+            call dgetrf(n, n, a, size(a, 1), pivots, lapack_info)
+        end if
         smallest = huge(1.0_dp)
         do k = 1, n
             ! Also catches scale == 0, LAPACK's exact zero pivots and NaN entries.
@@ -196,9 +243,17 @@ contains
         real(dp), intent(in), contiguous :: lu(:, :)   !! factors from lu_factor_dp (n x n)
         integer, intent(in) :: pivots(:)    !! interchanges from lu_factor_dp
         real(dp), intent(inout), contiguous :: b(:, :) !! right-hand sides in, solutions out
-        integer :: info
-        if (size(lu, 1) == 0) return
-        call dgetrs("N", size(lu, 1), size(b, 2), lu, size(lu, 1), pivots, b, size(b, 1), info)
+        integer :: info, n
+        n = size(lu, 1)
+        if (n == 0) return
+        if (size(b, 2) == 1) then
+            ! One right-hand side (Newton): the interchanges, then L and U by level-2 BLAS.
+            call dlaswp(1, b, size(b, 1), 1, n, pivots, 1)
+            call dtrsv("L", "N", "U", n, lu, n, b(:, 1), 1)
+            call dtrsv("U", "N", "N", n, lu, n, b(:, 1), 1)
+        else
+            call dgetrs("N", n, size(b, 2), lu, n, pivots, b, size(b, 1), info)
+        end if
     end subroutine lu_solve_dp
 
 end module holosym_linalg
