@@ -122,6 +122,7 @@ contains
         integ%jacobian = "assembled"
         integ%hessians = "differences"
         integ%extrapolate = .false.
+        integ%linear_increments = .false.
         select case (variant)
         case (0)
         case (1)
@@ -146,12 +147,14 @@ contains
             integ%linear_solver = "mixed"
             integ%extrapolate = .true.
             integ%hessians = "user"
+            integ%linear_increments = .true.
         case default
             integ%newton%simplified = .true.
             integ%linear_solver = "mixed"
             integ%newton%presolve = .true.
             integ%extrapolate = .true.
             integ%hessians = "user"
+            integ%linear_increments = .true.
         end select
     end subroutine configure_variant
 

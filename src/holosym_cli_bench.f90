@@ -490,7 +490,8 @@ contains
         write (unit, '(a)') ""
         write (unit, '(a)') "Error = max(|q - q_ref|, |p - p_ref|) at T; CPU seconds on one " // &
             "core, median of 3 for runs under 0.2 s. holosym: all speed options (simplified " // &
-            "Newton, mixed-precision LU, exact Hessians, extrapolated guess). RATTLE: " // &
+            "Newton, mixed-precision LU, real64 pre-solve in the real128 build, exact " // &
+            "Hessians, extrapolated guess). RATTLE: " // &
             "composed inside holosym (triple jump or Suzuki), same problem interface. " // &
             "'table' is the competitor's (GNI_COMP) time from the issue; 'x' = table / holosym."
         do precision = 2, 1, -1

@@ -20,6 +20,9 @@
 !! - `hessians` (`'user'` | `'differences'`): the system's `hessian` bindings, or differences
 !!   of its gradients.
 !! - `extrapolate` (`.true.` | `.false.`): first guess from the previous step's polynomials.
+!! - `linear_increments` (`.false.` | `.true.`): the step's results from the evaluation at
+!!   the last Newton iterate, updated to first order across the last (tiny) correction,
+!!   instead of one more evaluation at the solution (differences below 1e-32).
 !!
 !! `'native'` is a synonym of `'real128'` and `'lapack'` of `'mixed'`; in the real64 build
 !! (`-DHOLOSYM_REAL64`) the default linear solver is `'lapack'`. `stats` counts the work.
@@ -124,6 +127,9 @@ module holosym_integrator
         character(len=24) :: jacobian = "assembled"
         !> Second derivatives: 'user' (the system's bindings) or 'differences' (of gradients).
         character(len=16) :: hessians = "user"
+        !> Step results from the last iterate's evaluation updated to first order (saves an
+        !! evaluation per step) instead of a new evaluation at the solution.
+        logical :: linear_increments = .false.
         !> Work counters since init (read them; `reset_statistics` zeroes them).
         type(integrator_stats_t) :: stats
         !> Largest scaled residual of an accepted start state (see manifold_residuals).
@@ -309,6 +315,7 @@ contains
         self%workspace%linear_solver = modes(1)
         self%scheme%jacobian_mode = modes(2)
         self%scheme%hessian_mode = modes(3)
+        self%scheme%linear_increments = self%linear_increments
     end subroutine apply_options
 
     !> Solve one step from (q, p) without changing them; the increments are left in

@@ -36,6 +36,10 @@ module holosym_scheme
     !> Second derivatives by central differences of the gradients, ignoring the bindings.
     integer, parameter, public :: HESSIANS_DIFFERENCES = 2
 
+    !> `increments` updates the evaluation cached at a point this close to x (relative to
+    !! the size of the state) to first order instead of evaluating again: the last Newton
+    !! correction is about this small, so the neglected terms are below 1e-32 relative.
+    real(wp), parameter :: linear_update_limit = 1.0e4_wp * epsilon(1.0_wp)
     !> Relative step of the residual differences: epsilon**(1/3).
     real(wp), parameter :: residual_step = epsilon(1.0_wp)**(1.0_wp / 3)
     !> Pattern of a Hessian entry over the Gauss points.
@@ -77,6 +81,9 @@ module holosym_scheme
         integer :: jacobian_mode = JACOBIAN_ASSEMBLED
         !> Where second derivatives come from: HESSIANS_USER or HESSIANS_DIFFERENCES.
         integer :: hessian_mode = HESSIANS_USER
+        !> `increments` may update the evaluation at the last Newton iterate to first
+        !! order instead of evaluating at the solution (see `linear_update_limit`).
+        logical :: linear_increments = .false.
         !> Calls made so far.
         type(scheme_counters_t) :: counters
         real(wp), allocatable :: disp_nodes(:)      !! d_0..d_M, Lobatto points
@@ -114,6 +121,8 @@ module holosym_scheme
         logical, private :: cache_valid = .false.
         ! The cached evaluation came from `residual_lowered` (real64 accuracy only).
         logical, private :: cache_lowered = .false.
+        ! hqq, hqp and phi_hess hold second derivatives taken during the current step.
+        logical, private :: step_hessians = .false.
         type(lowered_tables_t), private :: low
         real(wp), allocatable, private :: q_nodes(:, :)      ! n x (0:M)
         real(wp), allocatable, private :: q_gauss(:, :)      ! n x G
@@ -355,6 +364,7 @@ contains
         self%pa = pa
         self%h = h
         self%cache_valid = .false.
+        self%step_hessians = .false.
         self%low%qa = real(qa, dp)
         self%low%pa = real(pa, dp)
         self%low%h = real(h, dp)
@@ -812,6 +822,7 @@ contains
                 "are not finite")
             return
         end if
+        self%step_hessians = .true.
         call classify(self%hqq, self%pattern_qq)
         call classify(self%hqp, self%pattern_qp)
         call classify(self%hpp, self%pattern_pp)
@@ -1010,8 +1021,15 @@ contains
         type(holosym_status_t), intent(out) :: status !! non-finite user values
         integer :: g, i, l
         real(wp) :: coefficient
-        call evaluate(self, x, status)
-        if (.not. status%ok()) return
+        logical :: linear
+        ! The last Newton correction is tiny: update the evaluation at the previous iterate
+        ! to first order (second derivatives of this step) rather than evaluate again.
+        linear = near_cached_exact(self, x)
+        if (.not. linear) then
+            call evaluate(self, x, status)
+            if (.not. status%ok()) return
+        end if
+        status%code = HOLOSYM_SUCCESS
         dq = x(z_at(self, self%order_m) + 1:z_at(self, self%order_m) + self%n)
         dp = 0
         do g = 1, self%gauss_points
@@ -1024,7 +1042,69 @@ contains
                 dp = dp - coefficient * self%phi_jac(l, :, i)
             end do
         end do
-    end subroutine scheme_increments
+        if (linear) dp = dp - real(first_order_change(self, x), wp)
+        end subroutine scheme_increments
+
+    !> True when the cache holds an exact evaluation within `linear_update_limit` of x and
+    !! the second derivatives of this step are at hand (assembled Jacobian).
+    logical function near_cached_exact(self, x)
+        class(discrete_scheme), intent(in) :: self
+        real(wp), intent(in) :: x(:)
+        real(wp) :: size_of_state
+        near_cached_exact = .false.
+        if (.not. self%linear_increments) return
+        if (.not. (self%cache_valid .and. self%step_hessians)) return
+        if (self%cache_lowered .or. self%jacobian_mode /= JACOBIAN_ASSEMBLED) return
+        size_of_state = max(1.0_wp, maxval(abs(self%qa)), maxval(abs(self%pa)), maxval(abs(x)))
+        near_cached_exact = maxval(abs(x - self%cached_x)) <= linear_update_limit * size_of_state
+    end function near_cached_exact
+
+    !> First-order change of h sum_g w_g H_q(Q_g, P_g) + sum_i wl_i Phi(q_i)^T mu_i from the
+    !! cached x to x through Q, P and q_i (the mu_i enter exactly in `increments`), in
+    !! real64: the change is ~1e-30, so real64 and second derivatives taken anywhere in
+    !! this step are accurate enough.
+    function first_order_change(self, x) result(change)
+        class(discrete_scheme), intent(in) :: self
+        real(wp), intent(in) :: x(:)
+        real(dp) :: change(self%n)
+        real(dp) :: delta(size(x)), dq_g(self%n), dp_g(self%n), weight
+        integer :: g, i, j, l, a, b, base, n
+        n = self%n
+        delta = real(x - self%cached_x, dp)
+        change = 0
+        do g = 1, self%gauss_points
+            dq_g = 0
+            do i = 1, self%order_m
+                base = z_at(self, i)
+                dq_g = dq_g + self%low%b(g, i) * delta(base + 1:base + n)
+            end do
+            dp_g = 0
+            do j = 0, self%order_n
+                base = w_at(self, j)
+                dp_g = dp_g + self%low%c(g, j) * delta(base + 1:base + n)
+            end do
+            weight = real(self%h * self%gauss_weights(g), dp)
+            do b = 1, n
+                do a = 1, n
+                    change(a) = change(a) + weight * (real(self%hqq(a, b, g), dp) * dq_g(b) &
+                        + real(self%hqp(a, b, g), dp) * dp_g(b))
+                end do
+            end do
+        end do
+        ! d/dq_i (Phi(q_i)^T mu_i) = sum_l mu_il phi_l''(q_i); q_0 = q_a does not move.
+        do i = 1, self%order_m
+            base = z_at(self, i)
+            do l = 1, self%m
+                weight = self%low%lobatto_weights(i) * real(x(mu_at(self, i) + l), dp)
+                do b = 1, n
+                    do a = 1, n
+                        change(a) = change(a) + weight * real(self%phi_hess(a, b, l, i), dp) &
+                            * delta(base + b)
+                    end do
+                end do
+            end do
+        end do
+    end function first_order_change
 
     !> Dense output of a solved step: q~(tau), p~(tau), lambda~(tau) for any tau
     !! (tau in [0, 1] interpolates; outside it extrapolates).
