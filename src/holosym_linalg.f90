@@ -7,9 +7,10 @@
 !!
 !! `lu_factor_dp`/`lu_solve_dp` are the real64 counterparts: they call LAPACK
 !! (dgetf2/dgetrf, dlaswp + BLAS dtrsv, dgetrs) through explicit interfaces with real64
-!! arrays (never real128 data). For the small matrices of a step the unblocked dgetf2
-!! and the level-2 dtrsv are 1.3-2.5x faster than dgetrf/dgetrs with reference
-!! LAPACK/BLAS (measured for n = 15..93), so they are used below `blocked_lu_size`.
+!! arrays (never real128 data). Measured for n = 15..93: with the reference LAPACK/BLAS the
+!! unblocked dgetf2 beats dgetrf by 1.3-2.5x, with OpenBLAS (installed by
+!! tools/install-deps.sh) dgetrf wins from n ~ 30 on (4x at n = 93); hence dgetf2 below
+!! `blocked_lu_size`. One right-hand side is solved by dlaswp + level-2 dtrsv.
 !! Newton uses them for mixed precision (a real64 factorisation, real128 residuals) and,
 !! in the real64 build, for everything.
 module holosym_linalg
@@ -21,7 +22,7 @@ module holosym_linalg
     public :: lu_factor_dp, lu_solve_dp, default_pivot_tolerance_dp
 
     !> From this order on `lu_factor_dp` uses the blocked dgetrf instead of dgetf2.
-    integer, parameter :: blocked_lu_size = 128
+    integer, parameter :: blocked_lu_size = 32
 
     interface
         !> LAPACK: unblocked LU factorisation of a real64 general matrix.
@@ -194,7 +195,7 @@ contains
         end if
     end function argument_info
 
-    !> LU factorisation of a real64 matrix with LAPACK's dgetf2 (dgetrf for n >= 128), with
+    !> LU factorisation of a real64 matrix with LAPACK's dgetf2 (dgetrf for n >= 32), with
     !! the same contract as
     !! `lu_factor`: `info` 0 success, -1 not square, -2 `pivots` too short, k > 0 when the
     !! k-th pivot is at most `tolerance * max|A|` (default n * epsilon(1.0_dp)).

@@ -66,6 +66,8 @@ module holosym_newton
         !> F(x) to real64 accuracy, cheaper than `residual`, for the pre-solve of
         !! `settings%presolve` (default: `residual` itself).
         procedure :: residual_lowered => default_residual_lowered
+        !> F'(x) in real64, for the mixed-precision solver (default: `jacobian`, rounded).
+        procedure :: jacobian_lowered => default_jacobian_lowered
     end type nonlinear_system
 
     !> Knobs of Newton's method; the defaults derive from epsilon(1.0_wp).
@@ -278,11 +280,6 @@ contains
             end if
             fresh = refactor .or. .not. settings%simplified
             if (fresh) then
-                call system%jacobian(x, ws%jac, eval_status)
-                if (.not. eval_status%ok()) then
-                    call fail(eval_status%code, eval_status%message)
-                    return
-                end if
                 if (.not. all_finite(ws%rhs(:, 1))) then
                     call fail(HOLOSYM_NONFINITE_VALUE, "non-finite residual at Newton " // &
                         "iteration " // int_str(iter))
@@ -291,10 +288,14 @@ contains
                 report%factorizations = report%factorizations + 1
                 info = 1
                 ws%factors_in_dp = .false.
-                ! Mixed precision: check, equilibrate and factor the real64 copy (no
-                ! working-precision arithmetic on the n^2 entries).
+                ! Mixed precision: a real64 Jacobian (assembled in real64 arithmetic by
+                ! systems that can), checked, equilibrated and factored in real64.
                 if (.not. native_only) then
-                    ws%jac_dp = real(ws%jac, dp)
+                    call system%jacobian_lowered(x, ws%jac_dp, eval_status)
+                    if (.not. eval_status%ok()) then
+                        call fail(eval_status%code, eval_status%message)
+                        return
+                    end if
                     if (all(ieee_is_finite(ws%jac_dp))) then
                         call equilibrate_rows_dp(ws%jac_dp, ws%row_scale)
                         call lu_factor_dp(ws%jac_dp, ws%pivots, info, &
@@ -304,7 +305,14 @@ contains
                         pivot_ratio = real(pivot_ratio_dp, wp)
                     end if
                 end if
+                ! Working precision: the plain path, or a matrix singular (or not finite)
+                ! in real64.
                 if (.not. ws%factors_in_dp) then
+                    call system%jacobian(x, ws%jac, eval_status)
+                    if (.not. eval_status%ok()) then
+                        call fail(eval_status%code, eval_status%message)
+                        return
+                    end if
                     if (.not. all_finite_matrix(ws%jac)) then
                         call fail(HOLOSYM_NONFINITE_VALUE, "non-finite Jacobian at Newton " // &
                             "iteration " // int_str(iter))
@@ -321,7 +329,6 @@ contains
                             ws%row_scale(i) = 1
                         end if
                     end do
-                    ! Working precision: the plain path, or a matrix singular to real64.
                     call lu_factor(ws%jac, ws%pivots, info, tolerance, pivot_ratio)
                 end if
                 if (info /= 0) then
@@ -465,6 +472,18 @@ contains
         type(holosym_status_t), intent(out) :: status !! failure of the evaluation
         call self%residual(x, f, status)
     end subroutine default_residual_lowered
+
+    !> Default `jacobian_lowered`: the working-precision Jacobian, rounded to real64.
+    subroutine default_jacobian_lowered(self, x, jac, status)
+        class(nonlinear_system), intent(inout) :: self !! the system
+        real(wp), intent(in) :: x(:)        !! unknowns
+        real(dp), intent(out) :: jac(:, :)  !! dF/dx in real64
+        type(holosym_status_t), intent(out) :: status !! failure of the evaluation
+        real(wp), allocatable :: full(:, :)
+        allocate (full(size(x), size(x)))
+        call self%jacobian(x, full, status)
+        jac = real(full, dp)
+    end subroutine default_jacobian_lowered
 
     !> Scale each row of a real64 matrix by a power of two so that its largest entry lies
     !! in [1, 2) (exact; zero rows keep scale 1); the scales are returned in working precision.

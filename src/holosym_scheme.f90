@@ -22,6 +22,11 @@ module holosym_scheme
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
         difference_constraint_hessian
     use holosym_newton, only: nonlinear_system, all_finite, all_finite_matrix
+    use holosym_assembly_wp, only: assembly_tables_wp => assembly_tables, &
+        assembly_hessians_wp => assembly_hessians, assemble_blocks_wp => assemble_blocks, &
+        entry_zero, entry_constant, entry_varying
+    use holosym_assembly_dp, only: assembly_tables_dp => assembly_tables, &
+        assembly_hessians_dp => assembly_hessians, assemble_blocks_dp => assemble_blocks
     implicit none
     private
 
@@ -42,8 +47,6 @@ module holosym_scheme
     real(wp), parameter :: linear_update_limit = 1.0e4_wp * epsilon(1.0_wp)
     !> Relative step of the residual differences: epsilon**(1/3).
     real(wp), parameter :: residual_step = epsilon(1.0_wp)**(1.0_wp / 3)
-    !> Pattern of a Hessian entry over the Gauss points.
-    integer, parameter :: entry_zero = 0, entry_constant = 1, entry_varying = 2
 
     !> Counts of the user-function calls made by a scheme (cumulative since `init`).
     type, public :: scheme_counters_t
@@ -62,7 +65,10 @@ module holosym_scheme
     !> real64 copies of the tables and real64 workspace of `residual_lowered`.
     type :: lowered_tables_t
         real(dp), allocatable :: b(:, :), c(:, :), wb(:, :), wc(:, :)  ! as in the scheme
-        real(dp), allocatable :: sum_a(:), sca(:, :), sac(:, :), lobatto_weights(:)
+        real(dp), allocatable :: sum_a(:)
+        type(assembly_tables_dp) :: tab      ! the assembly sums in real64
+        type(assembly_hessians_dp) :: hess   ! second derivatives in real64
+        real(dp), allocatable :: phi_jac(:, :, :) ! m x n x (0:M)
         real(dp), allocatable :: x(:), qa(:), pa(:), q(:), p(:)       ! nx, n, n, n, n
         real(dp), allocatable :: hq(:, :), hp(:, :), d(:, :), f(:)    ! n x G, n x G, n x (0:M), nx
         real(dp) :: h = 0
@@ -96,19 +102,13 @@ module holosym_scheme
         real(wp), allocatable :: c(:, :)  !! C(g, j) = chi_j(tau_g), G x (0:N)
         ! Precomputed quadrature sums.
         real(wp), allocatable, private :: sum_a(:)      ! (0:M) sum_g w_g A_gi
-        real(wp), allocatable, private :: sca(:, :)     ! (0:N, 1:M) sum_g w_g C_gj A_gk
-        real(wp), allocatable, private :: scb(:, :)     ! (0:N, 1:M) sum_g w_g C_gj B_gk
-        real(wp), allocatable, private :: scc(:, :)     ! (0:N, 0:N) sum_g w_g C_gj C_gl
-        real(wp), allocatable, private :: sac(:, :)     ! (0:M, 0:N) sum_g w_g A_gi C_gl
-        real(wp), allocatable, private :: sbb(:, :)     ! (0:M, 1:M) sum_g w_g B_gi B_gk
-        real(wp), allocatable, private :: sbc(:, :)     ! (0:M, 0:N) sum_g w_g B_gi C_gl
+        ! The sums of the Jacobian assembly (sca and sac also enter the residual):
+        ! SCA(j,k) = sum_g w_g C_gj A_gk, SCB = .. C_gj B_gk, SCC = .. C_gj C_gl,
+        ! SAC(i,l) = .. A_gi C_gl, SBB = .. B_gi B_gk, SBC = .. B_gi C_gl, and their
+        ! per-Gauss-point products WCB(g,j,k) = w_g C_gj B_gk, WCC, WBB, WBC.
+        type(assembly_tables_wp), private :: tab
         real(wp), allocatable, private :: wb(:, :)      ! (G, 0:M) w_g B_gi
         real(wp), allocatable, private :: wc(:, :)      ! (G, 0:N) w_g C_gj
-        ! Products of weights and basis values, per Gauss point (Jacobian assembly).
-        real(wp), allocatable, private :: wcb(:, :, :)  ! (G, 0:N, 1:M) w_g C_gj B_gk
-        real(wp), allocatable, private :: wcc(:, :, :)  ! (G, 0:N, 0:N) w_g C_gj C_gl
-        real(wp), allocatable, private :: wbb(:, :, :)  ! (G, 0:M, 1:M) w_g B_gi B_gk
-        real(wp), allocatable, private :: wbc(:, :, :)  ! (G, 0:M, 0:N) w_g B_gi C_gl
         ! Extrapolation to the next step of equal size: rho_i(1 + d_k), chi_j(1 + c_l).
         real(wp), allocatable, private :: extrap_q(:, :) ! (0:M node k, 0:M basis i)
         real(wp), allocatable, private :: extrap_p(:, :) ! (0:N node l, 0:N basis j)
@@ -134,12 +134,12 @@ module holosym_scheme
         real(wp), allocatable, private :: velocity(:)        ! n
         real(wp), allocatable, private :: q_work(:), phi_work(:) ! n, m
         ! Jacobian workspace.
-        real(wp), allocatable, private :: hqq(:, :, :), hqp(:, :, :), hpp(:, :, :) ! n x n x G
-        real(wp), allocatable, private :: phi_hess(:, :, :, :)  ! n x n x m x (1:M)
-        real(wp), allocatable, private :: end_hqq(:, :), end_hqp(:, :), end_hpp(:, :)
-        real(wp), allocatable, private :: d_block(:, :)     ! n x nx: dD_M/dx
-        real(wp), allocatable, private :: end_product(:, :) ! m x n: Phi_M hpp_end
-        integer, allocatable, private :: pattern_qq(:, :), pattern_qp(:, :), pattern_pp(:, :)
+        ! Second derivatives at the Gauss points, the nodes and the step end.
+        type(assembly_hessians_wp), private :: hess
+        real(wp), allocatable, private :: end_hqq(:, :)      ! n x n (not needed, returned)
+        ! Entries of Hqq, Hqp, Hpp zero (0), constant (1) or varying (2) over the Gauss
+        ! points: n x n x 3.
+        integer, allocatable, private :: patterns(:, :, :)
         real(wp), allocatable, private :: x_work(:), f_plus(:), f_minus(:) ! nx
     contains
         !> Set up the scheme for (M, N, G) and sizes (n, m).
@@ -152,6 +152,8 @@ module holosym_scheme
         procedure :: residual_lowered => scheme_residual_lowered
         !> Jacobian of the step equations.
         procedure :: jacobian => scheme_jacobian
+        !> The Jacobian assembled in real64 arithmetic (for the mixed-precision solver).
+        procedure :: jacobian_lowered => scheme_jacobian_lowered
         !> The trivial first guess (q_i = q_a, p_j = p_a, lambda = 0).
         procedure :: constant_guess => scheme_constant_guess
         !> First guess from the previous step's polynomials, extrapolated.
@@ -243,54 +245,11 @@ contains
             self%wb(g, :) = self%gauss_weights(g) * self%b(g, :)
             self%wc(g, :) = self%gauss_weights(g) * self%c(g, :)
         end do
-        allocate (self%sum_a(0:order_m), self%sca(0:order_n, order_m), &
-                  self%scb(0:order_n, order_m), self%scc(0:order_n, 0:order_n), &
-                  self%sac(0:order_m, 0:order_n), self%sbb(0:order_m, order_m), &
-                  self%sbc(0:order_m, 0:order_n))
+        allocate (self%sum_a(0:order_m))
         do i = 0, order_m
             self%sum_a(i) = sum(self%gauss_weights * self%a(:, i))
         end do
-        ! Keep the computed sums even where they equal rho_i(1) - rho_i(0) in exact
-        ! arithmetic: with the exact +-1, 0 the equations are no longer exactly the gradient
-        ! of one discrete action, and round-off then drifts linearly instead of randomly.
-        do k = 1, order_m
-            do j = 0, order_n
-                self%sca(j, k) = sum(self%wc(:, j) * self%a(:, k))
-                self%scb(j, k) = sum(self%wc(:, j) * self%b(:, k))
-            end do
-            do i = 0, order_m
-                self%sbb(i, k) = sum(self%wb(:, i) * self%b(:, k))
-            end do
-        end do
-        do j = 0, order_n
-            do k = 0, order_n
-                self%scc(k, j) = sum(self%wc(:, k) * self%c(:, j))
-            end do
-            do i = 0, order_m
-                self%sac(i, j) = sum(self%gauss_weights * self%a(:, i) * self%c(:, j))
-                self%sbc(i, j) = sum(self%wb(:, i) * self%c(:, j))
-            end do
-        end do
-        allocate (self%wcb(gauss_points, 0:order_n, order_m), &
-                  self%wcc(gauss_points, 0:order_n, 0:order_n), &
-                  self%wbb(gauss_points, 0:order_m, order_m), &
-                  self%wbc(gauss_points, 0:order_m, 0:order_n))
-        do j = 0, order_n
-            do k = 1, order_m
-                self%wcb(:, j, k) = self%wc(:, j) * self%b(:, k)
-            end do
-            do k = 0, order_n
-                self%wcc(:, j, k) = self%wc(:, j) * self%c(:, k)
-            end do
-        end do
-        do i = 0, order_m
-            do k = 1, order_m
-                self%wbb(:, i, k) = self%wb(:, i) * self%b(:, k)
-            end do
-            do k = 0, order_n
-                self%wbc(:, i, k) = self%wb(:, i) * self%c(:, k)
-            end do
-        end do
+        call assembly_sums(self, self%tab)
         allocate (self%extrap_q(0:order_m, 0:order_m), self%extrap_p(0:order_n, 0:order_n))
         do k = 0, order_m
             self%extrap_q(k, :) = lagrange_values(self%disp_nodes, 1 + self%disp_nodes(k))
@@ -302,16 +261,14 @@ contains
         ! Allocate first: assignment of an expression would make every lower bound 1.
         allocate (self%low%b(gauss_points, 0:order_m), self%low%c(gauss_points, 0:order_n), &
                   self%low%wb(gauss_points, 0:order_m), self%low%wc(gauss_points, 0:order_n), &
-                  self%low%sum_a(0:order_m), self%low%sca(0:order_n, order_m), &
-                  self%low%sac(0:order_m, 0:order_n), self%low%lobatto_weights(0:order_m))
+                  self%low%sum_a(0:order_m), self%low%phi_jac(m, n, 0:order_m))
         self%low%b = real(self%b, dp)
         self%low%c = real(self%c, dp)
         self%low%wb = real(self%wb, dp)
         self%low%wc = real(self%wc, dp)
         self%low%sum_a = real(self%sum_a, dp)
-        self%low%sca = real(self%sca, dp)
-        self%low%sac = real(self%sac, dp)
-        self%low%lobatto_weights = real(self%lobatto_weights, dp)
+        call lowered_assembly_sums(self%tab, self%low%tab)
+        call allocate_hessians_dp(self%low%hess, n, m, order_m, gauss_points, self%nx)
         allocate (self%low%x(self%nx), self%low%qa(n), self%low%pa(n), self%low%q(n), &
                   self%low%p(n), self%low%hq(n, gauss_points), self%low%hp(n, gauss_points), &
                   self%low%d(n, 0:order_m), self%low%f(self%nx))
@@ -322,11 +279,10 @@ contains
         allocate (self%p_gauss(n, gauss_points), self%hq_gauss(n, gauss_points))
         allocate (self%hp_gauss(n, gauss_points), self%phi_jac(m, n, 0:order_m))
         allocate (self%velocity(n), self%q_work(n), self%phi_work(m))
-        allocate (self%hqq(n, n, gauss_points), self%hqp(n, n, gauss_points), &
-                  self%hpp(n, n, gauss_points), self%phi_hess(n, n, m, order_m), &
-                  self%end_hqq(n, n), self%end_hqp(n, n), self%end_hpp(n, n), &
-                  self%d_block(n, self%nx), self%end_product(m, n))
-        allocate (self%pattern_qq(n, n), self%pattern_qp(n, n), self%pattern_pp(n, n))
+        allocate (self%hess%hqq(n, n, gauss_points), self%hess%hqp(n, n, gauss_points), &
+                  self%hess%hpp(n, n, gauss_points), self%hess%phi_hess(n, n, m, order_m), &
+                  self%hess%velocity(n), self%hess%end_hqp(n, n), self%hess%end_hpp(n, n), &
+                  self%hess%d_block(n, self%nx), self%end_hqq(n, n), self%patterns(n, n, 3))
         allocate (self%x_work(self%nx), self%f_plus(self%nx), self%f_minus(self%nx))
         self%cache_valid = .false.
         call set_status(status, HOLOSYM_SUCCESS, "")
@@ -337,15 +293,14 @@ contains
         class(discrete_scheme), intent(inout) :: self
         if (allocated(self%disp_nodes)) deallocate (self%disp_nodes, self%lobatto_weights, &
             self%mom_nodes, self%gauss_nodes, self%gauss_weights, self%b, self%a, self%c)
-        if (allocated(self%wb)) deallocate (self%wb, self%wc, self%sum_a, self%sca, self%scb, &
-            self%scc, self%sac, self%sbb, self%sbc, self%extrap_q, self%extrap_p, self%wcb, &
-            self%wcc, self%wbb, self%wbc)
+        if (allocated(self%wb)) deallocate (self%wb, self%wc, self%sum_a, self%extrap_q, &
+            self%extrap_p)
+        self%tab = assembly_tables_wp()
+        self%hess = assembly_hessians_wp()
         if (allocated(self%qa)) deallocate (self%qa, self%pa, self%cached_x, self%q_nodes, &
             self%d_values, self%q_gauss, self%p_gauss, self%hq_gauss, self%hp_gauss, &
             self%phi_jac, self%velocity, self%q_work, self%phi_work)
-        if (allocated(self%hqq)) deallocate (self%hqq, self%hqp, self%hpp, self%phi_hess, &
-            self%end_hqq, self%end_hqp, self%end_hpp, self%d_block, self%end_product, &
-            self%pattern_qq, self%pattern_qp, self%pattern_pp, self%x_work, &
+        if (allocated(self%end_hqq)) deallocate (self%end_hqq, self%patterns, self%x_work, &
             self%f_plus, self%f_minus)
         self%low = lowered_tables_t()
         self%cache_valid = .false.
@@ -450,7 +405,7 @@ contains
             self%d_values(:, i) = self%sum_a(i) * self%pa
             do l = 0, self%order_n
                 base = w_at(self, l)
-                coefficient = self%sac(i, l)
+                coefficient = self%tab%sac(i, l)
                 self%d_values(:, i) = self%d_values(:, i) + coefficient * x(base + 1:base + n)
             end do
             do g = 1, self%gauss_points
@@ -544,14 +499,14 @@ contains
                 low%d(:, i) = low%sum_a(i) * low%pa
                 do l = 0, self%order_n
                     base = w_at(self, l)
-                    low%d(:, i) = low%d(:, i) + low%sac(i, l) * low%x(base + 1:base + n)
+                    low%d(:, i) = low%d(:, i) + low%tab%sac(i, l) * low%x(base + 1:base + n)
                 end do
                 do g = 1, self%gauss_points
                     low%d(:, i) = low%d(:, i) - (low%h * low%wb(g, i)) * low%hq(:, g)
                 end do
                 mu0 = mu_at(self, i)
                 do l = 1, m
-                    low%d(:, i) = low%d(:, i) - (low%lobatto_weights(i) * low%x(mu0 + l)) &
+                    low%d(:, i) = low%d(:, i) - (low%tab%lobatto_weights(i) * low%x(mu0 + l)) &
                         * real(self%phi_jac(l, :, i), dp)
                 end do
             end do
@@ -582,7 +537,7 @@ contains
             f(row + 1:row + n) = 0
             do k = 1, self%order_m
                 base = z_at(self, k)
-                coefficient = self%sca(j, k)
+                coefficient = self%tab%sca(j, k)
                 f(row + 1:row + n) = f(row + 1:row + n) + coefficient * x(base + 1:base + n)
             end do
             do g = 1, self%gauss_points
@@ -620,7 +575,7 @@ contains
                 do k = 1, self%order_m
                     base = z_at(self, k)
                     low%f(row + 1:row + n) = low%f(row + 1:row + n) &
-                        + low%sca(j, k) * low%x(base + 1:base + n)
+                        + low%tab%sca(j, k) * low%x(base + 1:base + n)
                 end do
                 do g = 1, self%gauss_points
                     low%f(row + 1:row + n) = low%f(row + 1:row + n) &
@@ -682,6 +637,25 @@ contains
         end if
     end subroutine scheme_jacobian
 
+    !> `jacobian` in real64: assembled in real64 arithmetic from the same second derivatives
+    !! (residual differences are taken in working precision and rounded).
+    subroutine scheme_jacobian_lowered(self, x, jac, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:)        !! unknowns
+        real(dp), intent(out) :: jac(:, :)  !! nx x nx
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        real(wp), allocatable :: full(:, :)
+
+        self%counters%jacobians = self%counters%jacobians + 1
+        if (self%jacobian_mode == JACOBIAN_RESIDUAL_DIFFERENCES) then
+            allocate (full(self%nx, self%nx))
+            call residual_differences(self, x, full, status)
+            jac = real(full, dp)
+        else
+            call assemble_jacobian_lowered(self, x, jac, status)
+        end if
+    end subroutine scheme_jacobian_lowered
+
     !> Jacobian column by column from central differences of the residual.
     subroutine residual_differences(self, x, jac, status)
         class(discrete_scheme), intent(inout) :: self
@@ -741,42 +715,6 @@ contains
         end do
     end subroutine classify
 
-    !> target(row + a, col + b) += factor * sum_g s_g H_g(a, b) (or H_g(b, a) when
-    !! `transposed`), with `total` = sum_g s_g used for entries constant over g.
-    pure subroutine add_hessian_block(target, row, col, factor, s, total, hess, pattern, &
-                                      transposed)
-        real(wp), intent(inout) :: target(:, :)
-        integer, intent(in) :: row, col
-        real(wp), intent(in) :: factor, s(:), total, hess(:, :, :)
-        integer, intent(in) :: pattern(:, :)
-        logical, intent(in) :: transposed
-        integer :: a, b, ia, ib, g, n
-        real(wp) :: value
-        n = size(hess, 1)
-        do b = 1, n
-            do a = 1, n
-                if (transposed) then
-                    ia = b
-                    ib = a
-                else
-                    ia = a
-                    ib = b
-                end if
-                select case (pattern(ia, ib))
-                case (entry_zero)
-                    cycle
-                case (entry_constant)
-                    value = total * hess(ia, ib, 1)
-                case default
-                    value = 0
-                    do g = 1, size(s)
-                        value = value + s(g) * hess(ia, ib, g)
-                    end do
-                end select
-                target(row + a, col + b) = target(row + a, col + b) + factor * value
-            end do
-        end do
-    end subroutine add_hessian_block
 
     !> The assembled Jacobian.
     subroutine assemble_jacobian(self, x, jac, status)
@@ -784,156 +722,184 @@ contains
         real(wp), intent(in) :: x(:)
         real(wp), intent(out) :: jac(:, :)
         type(holosym_status_t), intent(out) :: status
-        integer :: n, m, mm, g, i, j, k, l, row, col, a
+        call jacobian_inputs(self, x, status)
+        if (.not. status%ok()) return
+        call assemble_blocks_wp(self%tab, self%hess, self%patterns, self%order_m, &
+                                self%order_n, self%n, self%m, self%h, &
+                                x(mu_at(self, 0) + 1:), self%phi_jac, jac)
+    end subroutine assemble_jacobian
+
+    !> The Jacobian assembled in real64 arithmetic (from the same second derivatives).
+    subroutine assemble_jacobian_lowered(self, x, jac, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:)
+        real(dp), intent(out) :: jac(:, :)
+        type(holosym_status_t), intent(out) :: status
+        call jacobian_inputs(self, x, status)
+        if (.not. status%ok()) return
+        associate (low => self%low)
+            low%hess%hqq = real(self%hess%hqq, dp)
+            low%hess%hqp = real(self%hess%hqp, dp)
+            low%hess%hpp = real(self%hess%hpp, dp)
+            low%phi_jac = real(self%phi_jac, dp)
+            if (self%m > 0) then
+                low%hess%phi_hess = real(self%hess%phi_hess, dp)
+                low%hess%velocity = real(self%hess%velocity, dp)
+                low%hess%end_hqp = real(self%hess%end_hqp, dp)
+                low%hess%end_hpp = real(self%hess%end_hpp, dp)
+            end if
+            call assemble_blocks_dp(low%tab, low%hess, self%patterns, self%order_m, &
+                                    self%order_n, self%n, self%m, low%h, &
+                                    real(x(mu_at(self, 0) + 1:), dp), low%phi_jac, jac)
+        end associate
+    end subroutine assemble_jacobian_lowered
+
+    !> What the assembly needs at x: the evaluation (a lowered one suffices: the Jacobian
+    !! only computes corrections), the second derivatives at the Gauss points and nodes,
+    !! their patterns, and H_p and its derivatives at the step end (when m > 0).
+    subroutine jacobian_inputs(self, x, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:)
+        type(holosym_status_t), intent(out) :: status
+        integer :: g, i, l, m, mm
         logical :: finite
 
-        ! A Jacobian at real64 accuracy suffices: it is only used to compute corrections.
         call evaluate(self, x, status, lowered_ok=.true.)
         if (.not. status%ok()) return
-        n = self%n
         m = self%m
         mm = self%order_m
-        do g = 1, self%gauss_points
-            call second_derivatives(self, self%q_gauss(:, g), self%p_gauss(:, g), &
-                                    self%hqq(:, :, g), self%hqp(:, :, g), self%hpp(:, :, g))
-        end do
-        do i = 1, mm
-            if (m == 0) exit
-            self%counters%hessians = self%counters%hessians + 1
-            if (self%hessian_mode == HESSIANS_DIFFERENCES) then
-                call difference_constraint_hessian(self%sys, self%q_nodes(:, i), &
-                                                   self%phi_hess(:, :, :, i))
-            else
-                call self%sys%constraint_hessian(self%q_nodes(:, i), self%phi_hess(:, :, :, i))
-            end if
-        end do
-        finite = .true.
-        do g = 1, self%gauss_points
-            finite = finite .and. all_finite_matrix(self%hqq(:, :, g)) .and. &
-                all_finite_matrix(self%hqp(:, :, g)) .and. all_finite_matrix(self%hpp(:, :, g))
-        end do
-        do i = 1, mm
-            do l = 1, m
-                finite = finite .and. all_finite_matrix(self%phi_hess(:, :, l, i))
+        associate (hess => self%hess)
+            do g = 1, self%gauss_points
+                call second_derivatives(self, self%q_gauss(:, g), self%p_gauss(:, g), &
+                                        hess%hqq(:, :, g), hess%hqp(:, :, g), hess%hpp(:, :, g))
             end do
-        end do
-        if (.not. finite) then
-            call set_status(status, HOLOSYM_NONFINITE_VALUE, "second derivatives of H or phi " // &
-                "are not finite")
-            return
-        end if
-        self%step_hessians = .true.
-        call classify(self%hqq, self%pattern_qq)
-        call classify(self%hqp, self%pattern_qp)
-        call classify(self%hpp, self%pattern_pp)
-
-        jac = 0
-        ! R_p,j = sum_k SCA(j,k) z_k - h sum_g w_g C_gj H_p(Q_g, P_g).
-        do j = 0, self%order_n
-            row = j * n
-            do k = 1, mm
-                col = z_at(self, k)
-                do a = 1, n
-                    jac(row + a, col + a) = jac(row + a, col + a) + self%sca(j, k)
-                end do
-                call add_hessian_block(jac, row, col, -self%h, self%wcb(:, j, k), self%scb(j, k), &
-                                       self%hqp, self%pattern_qp, .true.)
+            do i = 1, mm
+                if (m == 0) exit
+                self%counters%hessians = self%counters%hessians + 1
+                if (self%hessian_mode == HESSIANS_DIFFERENCES) then
+                    call difference_constraint_hessian(self%sys, self%q_nodes(:, i), &
+                                                       hess%phi_hess(:, :, :, i))
+                else
+                    call self%sys%constraint_hessian(self%q_nodes(:, i), &
+                                                     hess%phi_hess(:, :, :, i))
+                end if
             end do
-            do l = 0, self%order_n
-                col = w_at(self, l)
-                call add_hessian_block(jac, row, col, -self%h, self%wcc(:, j, l), self%scc(j, l), &
-                                       self%hpp, self%pattern_pp, .false.)
+            finite = .true.
+            do g = 1, self%gauss_points
+                finite = finite .and. all_finite_matrix(hess%hqq(:, :, g)) .and. &
+                    all_finite_matrix(hess%hqp(:, :, g)) .and. all_finite_matrix(hess%hpp(:, :, g))
             end do
-        end do
-        ! D_i rows for i = 0..M-1; D_M (into d_block) feeds the velocity constraint below.
-        do i = 0, mm
-            if (i < mm) then
-                row = d_row_at(self, i)
-                call d_derivatives(jac, row)
-            else
-                self%d_block = 0
-                call d_derivatives(self%d_block, 0)
-            end if
-        end do
-        ! phi(q_i) rows.
-        row = (mm + self%order_n + 1) * n
-        do i = 1, mm
-            col = z_at(self, i)
-            jac(row + 1:row + m, col + 1:col + n) = self%phi_jac(:, :, i)
-            row = row + m
-        end do
-        if (m == 0) return
-        ! Phi(q_M) H_p(q_M, p_b), p_b = D_M: chain rule through D_M (d_block holds dD_M/dx).
-        call self%sys%dh_dp(self%q_nodes(:, mm), self%d_values(:, mm), self%velocity)
-        self%counters%gradients = self%counters%gradients + 1
-        call second_derivatives(self, self%q_nodes(:, mm), self%d_values(:, mm), &
-                                self%end_hqq, self%end_hqp, self%end_hpp)
-        if (.not. (all_finite(self%velocity) .and. all_finite_matrix(self%end_hqp) .and. &
-                   all_finite_matrix(self%end_hpp))) then
-            call set_status(status, HOLOSYM_NONFINITE_VALUE, &
-                "dh_dp or its derivatives are not " // &
-                "finite at the step end")
-            return
-        end if
-        do k = 1, n
-            do l = 1, m
-                self%end_product(l, k) = sum(self%phi_jac(l, :, mm) * self%end_hpp(:, k))
-            end do
-        end do
-        do col = 1, self%nx
-            do l = 1, m
-                jac(row + l, col) = sum(self%end_product(l, :) * self%d_block(:, col))
-            end do
-        end do
-        col = z_at(self, mm)
-        do k = 1, n
-            do l = 1, m
-                ! (Phi_M hqp_end^T)(l, k) + (phi_l'' velocity)(k).
-                jac(row + l, col + k) = jac(row + l, col + k) &
-                    + sum(self%phi_jac(l, :, mm) * self%end_hqp(k, :)) &
-                    + sum(self%phi_hess(:, k, l, mm) * self%velocity)
-            end do
-        end do
-
-    contains
-
-        !> dD_i/dx into target rows row+1..row+n (i from the host).
-        subroutine d_derivatives(target, row)
-            real(wp), intent(inout) :: target(:, :)
-            integer, intent(in) :: row
-            integer :: k, l, col, a, b
-            do k = 1, mm
-                col = z_at(self, k)
-                call add_hessian_block(target, row, col, -self%h, self%wbb(:, i, k), &
-                                       self%sbb(i, k), self%hqq, self%pattern_qq, .false.)
-            end do
-            if (i >= 1) then
-                col = z_at(self, i)
+            do i = 1, mm
                 do l = 1, m
-                    do b = 1, n
-                        do a = 1, n
-                            target(row + a, col + b) = target(row + a, col + b) &
-                                - self%lobatto_weights(i) * x(mu_at(self, i) + l) &
-                                * self%phi_hess(a, b, l, i)
-                        end do
-                    end do
+                    finite = finite .and. all_finite_matrix(hess%phi_hess(:, :, l, i))
                 end do
+            end do
+            if (.not. finite) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "second derivatives of H " // &
+                    "or phi are not finite")
+                return
             end if
-            do l = 0, self%order_n
-                col = w_at(self, l)
-                do a = 1, n
-                    target(row + a, col + a) = target(row + a, col + a) + self%sac(i, l)
-                end do
-                call add_hessian_block(target, row, col, -self%h, self%wbc(:, i, l), &
-                                       self%sbc(i, l), self%hqp, self%pattern_qp, .false.)
-            end do
-            col = mu_at(self, i)
-            do l = 1, m
-                target(row + 1:row + n, col + l) = -self%lobatto_weights(i) * self%phi_jac(l, :, i)
-            end do
-        end subroutine d_derivatives
+            self%step_hessians = .true.
+            call classify(hess%hqq, self%patterns(:, :, 1))
+            call classify(hess%hqp, self%patterns(:, :, 2))
+            call classify(hess%hpp, self%patterns(:, :, 3))
+            if (m == 0) return
+            ! Phi(q_M) H_p(q_M, p_b), p_b = D_M, is differentiated through H_p at the end.
+            call self%sys%dh_dp(self%q_nodes(:, mm), self%d_values(:, mm), hess%velocity)
+            self%counters%gradients = self%counters%gradients + 1
+            call second_derivatives(self, self%q_nodes(:, mm), self%d_values(:, mm), &
+                                    self%end_hqq, hess%end_hqp, hess%end_hpp)
+            if (.not. (all_finite(hess%velocity) .and. all_finite_matrix(hess%end_hqp) .and. &
+                       all_finite_matrix(hess%end_hpp))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+                    "dh_dp or its derivatives are not finite at the step end")
+            end if
+        end associate
+    end subroutine jacobian_inputs
 
-    end subroutine assemble_jacobian
+    !> The quadrature sums of the Jacobian assembly (sca and sac enter the residual too).
+    !! Keep the computed sums even where they equal rho_i(1) - rho_i(0) in exact
+    !! arithmetic: with the exact +-1, 0 the equations are no longer exactly the gradient
+    !! of one discrete action, and round-off then drifts linearly instead of randomly.
+    subroutine assembly_sums(self, tab)
+        class(discrete_scheme), intent(in) :: self
+        type(assembly_tables_wp), intent(out) :: tab
+        integer :: i, j, k, mm, nn, gg
+        mm = self%order_m
+        nn = self%order_n
+        gg = self%gauss_points
+        allocate (tab%sca(0:nn, mm), tab%scb(0:nn, mm), tab%scc(0:nn, 0:nn), &
+                  tab%sac(0:mm, 0:nn), tab%sbb(0:mm, mm), tab%sbc(0:mm, 0:nn), &
+                  tab%wcb(gg, 0:nn, mm), tab%wcc(gg, 0:nn, 0:nn), tab%wbb(gg, 0:mm, mm), &
+                  tab%wbc(gg, 0:mm, 0:nn), tab%lobatto_weights(0:mm))
+        tab%lobatto_weights = self%lobatto_weights
+        do k = 1, mm
+            do j = 0, nn
+                tab%sca(j, k) = sum(self%wc(:, j) * self%a(:, k))
+                tab%scb(j, k) = sum(self%wc(:, j) * self%b(:, k))
+                tab%wcb(:, j, k) = self%wc(:, j) * self%b(:, k)
+            end do
+            do i = 0, mm
+                tab%sbb(i, k) = sum(self%wb(:, i) * self%b(:, k))
+                tab%wbb(:, i, k) = self%wb(:, i) * self%b(:, k)
+            end do
+        end do
+        do j = 0, nn
+            do k = 0, nn
+                tab%scc(k, j) = sum(self%wc(:, k) * self%c(:, j))
+                tab%wcc(:, k, j) = self%wc(:, k) * self%c(:, j)
+            end do
+            do i = 0, mm
+                tab%sac(i, j) = sum(self%gauss_weights * self%a(:, i) * self%c(:, j))
+                tab%sbc(i, j) = sum(self%wb(:, i) * self%c(:, j))
+                tab%wbc(:, i, j) = self%wb(:, i) * self%c(:, j)
+            end do
+        end do
+    end subroutine assembly_sums
+
+    !> real64 copies of the assembly sums (with their index bounds).
+    subroutine lowered_assembly_sums(tab, low)
+        type(assembly_tables_wp), intent(in) :: tab
+        type(assembly_tables_dp), intent(out) :: low
+        call lower_2d(tab%sca, low%sca)
+        call lower_2d(tab%scb, low%scb)
+        call lower_2d(tab%scc, low%scc)
+        call lower_2d(tab%sac, low%sac)
+        call lower_2d(tab%sbb, low%sbb)
+        call lower_2d(tab%sbc, low%sbc)
+        call lower_3d(tab%wcb, low%wcb)
+        call lower_3d(tab%wcc, low%wcc)
+        call lower_3d(tab%wbb, low%wbb)
+        call lower_3d(tab%wbc, low%wbc)
+        allocate (low%lobatto_weights(0:ubound(tab%lobatto_weights, 1)))
+        low%lobatto_weights = real(tab%lobatto_weights, dp)
+    contains
+        ! Allocate first: assignment of an expression would make every lower bound 1.
+        subroutine lower_2d(source, copy)
+            real(wp), allocatable, intent(in) :: source(:, :)
+            real(dp), allocatable, intent(out) :: copy(:, :)
+            allocate (copy(lbound(source, 1):ubound(source, 1), &
+                           lbound(source, 2):ubound(source, 2)))
+            copy = real(source, dp)
+        end subroutine lower_2d
+        subroutine lower_3d(source, copy)
+            real(wp), allocatable, intent(in) :: source(:, :, :)
+            real(dp), allocatable, intent(out) :: copy(:, :, :)
+            allocate (copy(lbound(source, 1):ubound(source, 1), &
+                           lbound(source, 2):ubound(source, 2), &
+                           lbound(source, 3):ubound(source, 3)))
+            copy = real(source, dp)
+        end subroutine lower_3d
+    end subroutine lowered_assembly_sums
+
+    !> real64 workspace of the lowered assembly.
+    subroutine allocate_hessians_dp(hess, n, m, order_m, gauss_points, nx)
+        type(assembly_hessians_dp), intent(out) :: hess
+        integer, intent(in) :: n, m, order_m, gauss_points, nx
+        allocate (hess%hqq(n, n, gauss_points), hess%hqp(n, n, gauss_points), &
+                  hess%hpp(n, n, gauss_points), hess%phi_hess(n, n, m, order_m), &
+                  hess%velocity(n), hess%end_hqp(n, n), hess%end_hpp(n, n), hess%d_block(n, nx))
+    end subroutine allocate_hessians_dp
 
     !> First guess q_i = q_a, p_j = p_a, lambda_k = 0 (all increments zero).
     pure subroutine scheme_constant_guess(self, x)
@@ -1086,8 +1052,8 @@ contains
             weight = real(self%h * self%gauss_weights(g), dp)
             do b = 1, n
                 do a = 1, n
-                    change(a) = change(a) + weight * (real(self%hqq(a, b, g), dp) * dq_g(b) &
-                        + real(self%hqp(a, b, g), dp) * dp_g(b))
+                    change(a) = change(a) + weight * (real(self%hess%hqq(a, b, g), dp) * dq_g(b) &
+                        + real(self%hess%hqp(a, b, g), dp) * dp_g(b))
                 end do
             end do
         end do
@@ -1095,10 +1061,10 @@ contains
         do i = 1, self%order_m
             base = z_at(self, i)
             do l = 1, self%m
-                weight = self%low%lobatto_weights(i) * real(x(mu_at(self, i) + l), dp)
+                weight = self%low%tab%lobatto_weights(i) * real(x(mu_at(self, i) + l), dp)
                 do b = 1, n
                     do a = 1, n
-                        change(a) = change(a) + weight * real(self%phi_hess(a, b, l, i), dp) &
+                        change(a) = change(a) + weight * real(self%hess%phi_hess(a, b, l, i), dp) &
                             * delta(base + b)
                     end do
                 end do

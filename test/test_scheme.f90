@@ -53,6 +53,7 @@ contains
             new_test("jacobian_matches_differences_linkage", jacobian_fd_linkage), &
             new_test("jacobian_independent_of_cache", jacobian_cache), &
             new_test("lowered_residual_matches_to_real64", lowered_residual), &
+            new_test("lowered_jacobian_matches_to_real64", lowered_jacobian), &
             new_test("lowered_evaluation_not_reused_by_residual", lowered_cache), &
             new_test("residual_zero_at_exact_polynomial_solution", residual_exact_solution), &
             new_test("residual_nonzero_off_solution", residual_off_solution), &
@@ -549,6 +550,51 @@ contains
                 orders_str(order_m, order_n, gauss_points) // ": lowered residual is exact")
         end subroutine compare
     end subroutine lowered_residual
+
+    !> jacobian_lowered (assembled in real64 arithmetic) equals the working-precision
+    !! Jacobian rounded, to real64 round-off, on both paper systems; also after a lowered
+    !! evaluation at the same x.
+    subroutine lowered_jacobian(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spring_linkage), target :: linkage
+        type(spherical_pendulum), target :: sphere
+        real(wp) :: q6(6), p6(6), q3(3), p3(3)
+        linkage = spring_linkage()
+        call linkage%initial_state(q6, p6)
+        sphere = spherical_pendulum()
+        call sphere%initial_state(q3, p3)
+        call compare(linkage, q6, p6, 3, 2, 4)
+        call compare(sphere, q3, p3, 2, 1, 3)
+        call compare(sphere, q3, p3, 6, 5, 7)
+    contains
+        subroutine compare(sys, q, p, order_m, order_n, gauss_points)
+            class(constrained_hamiltonian), intent(in), target :: sys
+            real(wp), intent(in) :: q(:), p(:)
+            integer, intent(in) :: order_m, order_n, gauss_points
+            type(discrete_scheme) :: scheme
+            type(holosym_status_t) :: status
+            real(wp), allocatable :: x(:), f(:), full(:, :)
+            real(dp), allocatable :: lowered(:, :)
+            real(wp) :: difference
+            call setup(error, scheme, sys, order_m, order_n, gauss_points, q, p, 0.5_wp)
+            if (allocated(error)) return
+            allocate (x(scheme%nx), f(scheme%nx), full(scheme%nx, scheme%nx), &
+                      lowered(scheme%nx, scheme%nx))
+            call fixed_seed(13)
+            call random_number(x)
+            x = 1.0e-2_wp * (x - 0.5_wp)
+            call scheme%jacobian(x, full, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "jacobian")
+            call scheme%residual_lowered(x, f, status)
+            call scheme%jacobian_lowered(x, lowered, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "jacobian_lowered")
+            if (allocated(error)) return
+            difference = maxval(abs(full - real(lowered, wp)))
+            call check(error, difference <= 1.0e3_wp * epsilon(1.0_dp) * &
+                max(1.0_wp, maxval(abs(full))), orders_str(order_m, order_n, gauss_points) &
+                // ": real64 Jacobian differs by " // real_str(difference))
+        end subroutine compare
+    end subroutine lowered_jacobian
 
     !> An evaluation cached by residual_lowered is not taken for the exact residual or the
     !! increments at the same x: they equal those of a scheme that never lowered.
