@@ -41,10 +41,11 @@ module holosym_scheme
     !> Second derivatives by central differences of the gradients, ignoring the bindings.
     integer, parameter, public :: HESSIANS_DIFFERENCES = 2
 
-    !> `increments` updates the evaluation cached at a point this close to x (relative to
-    !! the size of the state) to first order instead of evaluating again: the last Newton
-    !! correction is about this small, so the neglected terms are below 1e-32 relative.
-    real(wp), parameter :: linear_update_limit = 1.0e4_wp * epsilon(1.0_wp)
+    !> `increments` updates the evaluation cached at a point at distance delta from x to
+    !! first order, with second derivatives taken at distance d from x, when
+    !! delta (delta + d) <= this (relative to the squared size of the state): the neglected
+    !! terms, of order delta^2 and delta d, are then below epsilon.
+    real(wp), parameter :: linear_update_limit = epsilon(1.0_wp) / 16
     !> Relative step of the residual differences: epsilon**(1/3).
     real(wp), parameter :: residual_step = epsilon(1.0_wp)**(1.0_wp / 3)
 
@@ -121,8 +122,10 @@ module holosym_scheme
         logical, private :: cache_valid = .false.
         ! The cached evaluation came from `residual_lowered` (real64 accuracy only).
         logical, private :: cache_lowered = .false.
-        ! hqq, hqp and phi_hess hold second derivatives taken during the current step.
+        ! hqq, hqp and phi_hess hold second derivatives taken during the current step,
+        ! at hessian_x.
         logical, private :: step_hessians = .false.
+        real(wp), allocatable, private :: hessian_x(:)
         type(lowered_tables_t), private :: low
         real(wp), allocatable, private :: q_nodes(:, :)      ! n x (0:M)
         real(wp), allocatable, private :: q_gauss(:, :)      ! n x G
@@ -273,7 +276,7 @@ contains
                   self%low%p(n), self%low%hq(n, gauss_points), self%low%hp(n, gauss_points), &
                   self%low%d(n, 0:order_m), self%low%f(self%nx))
 
-        allocate (self%qa(n), self%pa(n), self%cached_x(self%nx))
+        allocate (self%qa(n), self%pa(n), self%cached_x(self%nx), self%hessian_x(self%nx))
         allocate (self%q_nodes(n, 0:order_m), self%d_values(n, 0:order_m))
         allocate (self%q_gauss(n, gauss_points))
         allocate (self%p_gauss(n, gauss_points), self%hq_gauss(n, gauss_points))
@@ -297,7 +300,8 @@ contains
             self%extrap_p)
         self%tab = assembly_tables_wp()
         self%hess = assembly_hessians_wp()
-        if (allocated(self%qa)) deallocate (self%qa, self%pa, self%cached_x, self%q_nodes, &
+        if (allocated(self%qa)) deallocate (self%qa, self%pa, self%cached_x, self%hessian_x, &
+            self%q_nodes, &
             self%d_values, self%q_gauss, self%p_gauss, self%hq_gauss, self%hp_gauss, &
             self%phi_jac, self%velocity, self%q_work, self%phi_work)
         if (allocated(self%end_hqq)) deallocate (self%end_hqq, self%patterns, self%x_work, &
@@ -800,6 +804,7 @@ contains
                 return
             end if
             self%step_hessians = .true.
+            self%hessian_x = x
             call classify(hess%hqq, self%patterns(:, :, 1))
             call classify(hess%hqp, self%patterns(:, :, 2))
             call classify(hess%hpp, self%patterns(:, :, 3))
@@ -1016,13 +1021,16 @@ contains
     logical function near_cached_exact(self, x)
         class(discrete_scheme), intent(in) :: self
         real(wp), intent(in) :: x(:)
-        real(wp) :: size_of_state
+        real(wp) :: size_of_state, delta, distance
         near_cached_exact = .false.
         if (.not. self%linear_increments) return
         if (.not. (self%cache_valid .and. self%step_hessians)) return
         if (self%cache_lowered .or. self%jacobian_mode /= JACOBIAN_ASSEMBLED) return
         size_of_state = max(1.0_wp, maxval(abs(self%qa)), maxval(abs(self%pa)), maxval(abs(x)))
-        near_cached_exact = maxval(abs(x - self%cached_x)) <= linear_update_limit * size_of_state
+        delta = maxval(abs(x - self%cached_x))
+        ! The second derivatives may come from a lowered evaluation (real64 round-off).
+        distance = maxval(abs(x - self%hessian_x)) + real(epsilon(1.0_dp), wp) * size_of_state
+        near_cached_exact = delta * (delta + distance) <= linear_update_limit * size_of_state**2
     end function near_cached_exact
 
     !> First-order change of h sum_g w_g H_q(Q_g, P_g) + sum_i wl_i Phi(q_i)^T mu_i from the
