@@ -90,7 +90,7 @@ contains
         character(len=:), allocatable :: name
         select case (variant)
         case (0)
-            name = "plain (full Newton, real128 LU, difference Hessians, fresh guess)"
+            name = "plain (full Newton, working-precision LU, difference Hessians, fresh guess)"
         case (1)
             name = "plain + residual-difference Jacobian"
         case (2)
