@@ -1,13 +1,17 @@
 !> The speed options of the integrator on the spherical pendulum: the plain path (full
 !! Newton, real128 LU, difference Hessians, fresh first guess) against all fast options
-!! (simplified Newton, mixed-precision LU, exact Hessians, extrapolated guess). Both give
-!! the same state to round-off; the fast one is several times cheaper per step.
+!! (simplified Newton, mixed-precision LU, real64 pre-solve, first-order increments, exact
+!! Hessians, extrapolated guess). Both give the same state to round-off; the fast one is
+!! many times cheaper per step.
 !!
 !!     fpm run --profile release --example speed_options
 !!
-!! Output (CPU seconds per step vary with the machine), e.g.:
+!! Output today (CPU seconds per step vary with the machine):
 !!     (M,N,G) = (7,6,8), h = 1/8, 80 steps
-!!     plain: ... s/step, fast: ... s/step, speed-up ...; states differ by ~1e-33
+!!     plain:  1.46E-02 s/step, fast:  4.91E-04 s/step, speed-up   29.8
+!!     states differ by  1.44E-34
+!!     LU factorisations: plain 480, fast 92
+!!     Newton iterations: plain 480, fast 386
 program speed_options
     use holosym, only: wp, spherical_pendulum, constrained_integrator, holosym_status_t
     implicit none
@@ -36,6 +40,8 @@ program speed_options
     fast%linear_solver = "mixed"
     fast%hessians = "user"
     fast%extrapolate = .true.
+    fast%newton%presolve = .true.
+    fast%linear_increments = .true.
 
     ! `speed_options fast` runs only the fast path (for profiling).
     mode = ""
