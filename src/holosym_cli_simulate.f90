@@ -61,6 +61,8 @@ module holosym_cli_simulate
         integer :: steps = 0
         !> Write a row every `every` steps (t = 0 and the last step always).
         integer :: every = default_every
+        !> All speed options of the integrator (--fast); the same results to round-off.
+        logical :: fast = .false.
         !> Output file; empty for the output unit given to `run_simulate`.
         character(len=:), allocatable :: output
         !> True when --help was given (nothing else is then checked).
@@ -139,6 +141,9 @@ contains
             "  --every INT    write a row every INT steps, >= 1; the rows at t = 0 and", &
             "                 after the last step are always written         [1]", &
             "  --output FILE  write the CSV to FILE instead of standard output", &
+            "  --fast         all speed options of the integrator (simplified Newton,", &
+            "                 real64 LU, real64 pre-solve, first-order increments):", &
+            "                 the same states to round-off, many times faster", &
             "  -h, --help     show this help", &
             "", &
             "Columns: t,q1..qn,p1..pn,lambda1..lambdam,H,energy_error,constraint_residual,", &
@@ -190,6 +195,13 @@ contains
                     config%help = .true.
                 end if
                 return
+            case ("--fast")
+                if (has_inline) then
+                    call fail(status, "option --fast takes no value; got '" // &
+                        args(i)%text // "'")
+                    return
+                end if
+                config%fast = .true.
             case ("--system", "--M", "--m", "--N", "--n", "--G", "--g", "--h", "--T", "--t", &
                   "--steps", "--every", "--output")
                 call option_value(args, i, name, inline, has_inline, value, status)
@@ -376,6 +388,12 @@ contains
         if (.not. status%ok()) return
         call integrator%init(sys, config%order_m, config%order_n, config%gauss_points, status)
         if (.not. status%ok()) return
+        if (config%fast) then
+            integrator%newton%simplified = .true.
+            integrator%linear_solver = "mixed"
+            integrator%newton%presolve = .true.
+            integrator%linear_increments = .true.
+        end if
         unit = out_unit
         if (len(config%output) > 0) then
             open (newunit=unit, file=config%output, status="replace", action="write", &

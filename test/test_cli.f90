@@ -3,7 +3,7 @@
 !! into scratch files.
 module test_cli
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, int_str, HOLOSYM_INVALID_ARGUMENT
+    use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_INVALID_ARGUMENT
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
         check_status_code
     use holosym_cli, only: cli_run
@@ -45,6 +45,7 @@ contains
             new_test("csv_header", test_csv_header), &
             new_test("dispatcher_exit_codes", test_dispatcher_exit_codes), &
             new_test("simulate_in_process", test_simulate_in_process), &
+            new_test("simulate_fast_same_rows", test_simulate_fast), &
             new_test("simulate_output_file", test_simulate_output_file), &
             new_test("simulate_integrator_failure", test_simulate_failure)]
     end function cli_tests
@@ -468,6 +469,56 @@ contains
         call check(error, summary%max_energy_error > 0 .and. &
             summary%max_energy_error < h**4, "small nonzero energy error")
     end subroutine test_simulate_in_process
+
+    !> --fast is a flag (a value is rejected) and gives the rows of the default run to
+    !! round-off, with fewer real128 Newton iterations in the last column or equal.
+    subroutine test_simulate_fast(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(simulate_config_t) :: config
+        type(holosym_status_t) :: status
+        type(cli_argument_t), allocatable :: plain(:), fast(:)
+        integer :: count_plain, count_fast, i, k, ios
+        real(wp) :: a, b, difference
+        character(len=*), parameter :: options = "--system linkage --M 3 --h 1/4 --steps 8"
+
+        call parse_line("--fast", config, status)
+        call check(error, status%ok() .and. config%fast, "--fast sets the flag")
+        call expect_rejection(error, "--fast=yes", ["--fast"])
+        call run_lines(options, plain, count_plain)
+        call run_lines(options // " --fast", fast, count_fast)
+        if (allocated(error)) return
+        call check(error, count_plain == count_fast .and. count_plain == 10, "rows: " // &
+            int_str(count_plain) // " and " // int_str(count_fast))
+        if (allocated(error)) return
+        difference = 0
+        do i = 2, count_plain
+            do k = 1, 13   ! t, q (6), p (6)
+                call field_real(plain(i)%text, k, a, ios)
+                call field_real(fast(i)%text, k, b, ios)
+                difference = max(difference, abs(a - b))
+            end do
+        end do
+        call check(error, difference <= max(1.0e-30_wp, 1.0e4_wp * epsilon(1.0_wp)), &
+            "--fast changes the state by " // real_str(difference))
+    contains
+        subroutine run_lines(line, lines, count)
+            character(len=*), intent(in) :: line
+            type(cli_argument_t), allocatable, intent(out) :: lines(:)
+            integer, intent(out) :: count
+            integer :: out, err
+            count = 0
+            call parse_line(line, config, status)
+            call check(error, status%ok(), "parse '" // line // "': " // status%message)
+            if (allocated(error)) return
+            open (newunit=out, status="scratch", action="readwrite")
+            open (newunit=err, status="scratch", action="readwrite")
+            call run_simulate(config, out, err, status)
+            call check(error, status%ok(), "run '" // line // "': " // status%message)
+            call read_all(out, lines, count)
+            close (out)
+            close (err)
+        end subroutine run_lines
+    end subroutine test_simulate_fast
 
     subroutine test_simulate_output_file(error)
         type(test_error_t), allocatable, intent(out) :: error
