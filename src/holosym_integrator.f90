@@ -33,7 +33,8 @@ module holosym_integrator
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
-        HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
+        HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
+        HOLOSYM_NEWTON_NOT_CONVERGED
     use holosym_problem, only: constrained_hamiltonian
     use holosym_newton, only: newton_settings_t, newton_report_t, newton_solve, &
         newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
@@ -146,7 +147,7 @@ module holosym_integrator
         real(wp), private :: workspace_h = 0
         integer, private :: applied_modes(3) = 0
         real(wp), allocatable, private :: x_work(:), dq_work(:), dp_work(:)
-        real(wp), allocatable, private :: end_jac(:, :), end_velocity(:)
+        real(wp), allocatable, private :: q_end_work(:), p_end_work(:)
     contains
         !> Set up for a system and (M, N, G).
         procedure :: init => integrator_init
@@ -190,11 +191,11 @@ contains
         allocate (self%last_info%lambda(sys%m, 0:order_m))
         self%last_info%lambda = 0
         if (allocated(self%x_work)) deallocate (self%x_work, self%dq_work, self%dp_work, &
-                                                self%end_jac, self%end_velocity)
+                                                self%q_end_work, self%p_end_work)
         if (allocated(self%last_x)) deallocate (self%last_x, self%last_qa, self%last_pa, &
                                                 self%last_qb, self%last_pb)
         allocate (self%x_work(scheme%nx), self%dq_work(sys%n), self%dp_work(sys%n), &
-                  self%end_jac(sys%m, sys%n), self%end_velocity(sys%n))
+                  self%q_end_work(sys%n), self%p_end_work(sys%n))
         allocate (self%last_x(scheme%nx), self%last_qa(sys%n), self%last_pa(sys%n), &
                   self%last_qb(sys%n), self%last_pb(sys%n))
         call self%workspace%setup(scheme%nx)
@@ -318,6 +319,22 @@ contains
         self%scheme%linear_increments = self%linear_increments
     end subroutine apply_options
 
+    !> True when any of the Newton speed options is in use.
+    pure logical function fast_options(self)
+        class(constrained_integrator), intent(in) :: self
+        fast_options = self%newton%simplified .or. self%newton%presolve .or. &
+            (self%linear_solver /= "real128" .and. self%linear_solver /= "native")
+    end function fast_options
+
+    !> `settings` with the speed options of Newton's method off.
+    pure function plain_settings(settings) result(plain)
+        type(newton_settings_t), intent(in) :: settings
+        type(newton_settings_t) :: plain
+        plain = settings
+        plain%simplified = .false.
+        plain%presolve = .false.
+    end function plain_settings
+
     !> Solve one step from (q, p) without changing them; the increments are left in
     !! self%dq_work, self%dp_work and the step's data in self%last_*.
     subroutine solve_step(self, sys, q, p, h, status)
@@ -325,7 +342,7 @@ contains
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: scale, max_phi
+        real(wp) :: scale, max_phi, end_velocity_residual
         type(newton_report_t) :: report
         logical :: extrapolated
         integer :: order_m, order_n, gauss_points, l, iterations, factorizations
@@ -352,25 +369,24 @@ contains
         ! Increments are compared with the size of the state, not with themselves.
         scale = max(maxval(abs(q)), maxval(abs(p)))
         if (scale <= 0) scale = 1
-        call newton_solve(self%scheme, self%x_work, self%newton, scale, report, status, &
-                          self%workspace)
-        iterations = report%iterations
-        factorizations = report%factorizations
-        if (.not. status%ok() .and. report%reused_factors .and. &
-            status%code /= HOLOSYM_NONFINITE_VALUE) then
-            ! Factors kept from earlier steps may be too stale: retry with fresh ones.
-            call newton_solve(self%scheme, self%x_work, self%newton, scale, report, status, &
-                              self%workspace)
-            iterations = iterations + report%iterations
-            factorizations = factorizations + report%factorizations
-        end if
-        if (.not. status%ok() .and. extrapolated .and. status%code /= HOLOSYM_NONFINITE_VALUE) then
-            ! A poor extrapolation (e.g. after a change of h) should not fail the step.
-            call self%scheme%constant_guess(self%x_work)
-            call newton_solve(self%scheme, self%x_work, self%newton, scale, report, status, &
-                              self%workspace)
-            iterations = iterations + report%iterations
-            factorizations = factorizations + report%factorizations
+        iterations = 0
+        factorizations = 0
+        call solve_with_retries(self%newton)
+        if (.not. status%ok() .and. status%code /= HOLOSYM_NONFINITE_VALUE .and. &
+            fast_options(self)) then
+            ! The speed options are heuristics: before failing the step, the plain path
+            ! (full Newton, working-precision LU, no pre-solve) gets its chance.
+            call self%workspace%invalidate()
+            self%workspace%linear_solver = LINEAR_SOLVER_NATIVE
+            if (extrapolated) then
+                call self%scheme%extrapolated_guess(self%last_x, self%last_qa, self%last_pa, &
+                                                    self%last_h, q, p, h, self%x_work)
+            else
+                call self%scheme%constant_guess(self%x_work)
+            end if
+            call solve_with_retries(plain_settings(self%newton))
+            call self%workspace%invalidate()
+            self%applied_modes = 0
         end if
         self%stats%newton_iterations = self%stats%newton_iterations + iterations
         self%stats%lu_factorizations = self%stats%lu_factorizations + factorizations
@@ -393,12 +409,6 @@ contains
             end if
             return
         end if
-        call self%scheme%increments(self%x_work, self%dq_work, self%dp_work, status)
-        if (.not. status%ok()) return
-        if (.not. (all(is_finite(self%dq_work)) .and. all(is_finite(self%dp_work)))) then
-            call set_status(status, HOLOSYM_NONFINITE_VALUE, "step produced a non-finite state")
-            return
-        end if
         call self%scheme%node_values(self%x_work, self%last_info%lambda, max_phi)
         self%last_info%newton_iterations = iterations
         self%last_info%constraint_residual = max_phi
@@ -410,22 +420,73 @@ contains
         self%last_h = h
         self%last_qb = q + self%dq_work
         self%last_pb = p + self%dp_work
-        ! Hidden constraint at the step end, max |Phi(q_b) H_p(q_b, p_b)|, without allocation.
-        self%last_info%velocity_residual = 0
-        if (sys%m > 0) then
-            call sys%constraint_jacobian(self%last_qb, self%end_jac)
-            call sys%dh_dp(self%last_qb, self%last_pb, self%end_velocity)
-            self%scheme%counters%gradients = self%scheme%counters%gradients + 1
-            do l = 1, sys%m
-                self%last_info%velocity_residual = max(self%last_info%velocity_residual, &
-                    abs(sum(self%end_jac(l, :) * self%end_velocity)))
-            end do
-        end if
+        ! Hidden constraint at the step end, max |Phi(q_b) H_p(q_b, p_b)| (check_end_state).
+        self%last_info%velocity_residual = end_velocity_residual
         self%have_last = .true.
         self%stats%steps = self%stats%steps + 1
         call count_evaluations()
 
     contains
+
+        !> Newton from x_work with `settings`; on failure retry with fresh factors (kept
+        !! ones may be stale) and from the constant guess (a poor extrapolation should
+        !! not fail the step). On success the step's increments are in dq_work, dp_work
+        !! and the end state is checked against the constraints.
+        subroutine solve_with_retries(settings)
+            type(newton_settings_t), intent(in) :: settings
+            call newton_solve(self%scheme, self%x_work, settings, scale, report, status, &
+                              self%workspace)
+            call tally()
+            if (.not. status%ok() .and. report%reused_factors .and. &
+                status%code /= HOLOSYM_NONFINITE_VALUE) then
+                call newton_solve(self%scheme, self%x_work, settings, scale, report, status, &
+                                  self%workspace)
+                call tally()
+            end if
+            if (.not. status%ok() .and. extrapolated .and. &
+                status%code /= HOLOSYM_NONFINITE_VALUE) then
+                call self%scheme%constant_guess(self%x_work)
+                call newton_solve(self%scheme, self%x_work, settings, scale, report, status, &
+                                  self%workspace)
+                call tally()
+            end if
+            if (.not. status%ok()) return
+            call self%scheme%increments(self%x_work, self%dq_work, self%dp_work, status)
+            if (.not. status%ok()) return
+            if (.not. (all(is_finite(self%dq_work)) .and. all(is_finite(self%dp_work)))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "step produced a non-finite " &
+                    // "state")
+                return
+            end if
+            call check_end_state(status)
+        end subroutine solve_with_retries
+
+        !> Work of the last solve.
+        subroutine tally()
+            iterations = iterations + report%iterations
+            factorizations = factorizations + report%factorizations
+        end subroutine tally
+
+        !> A Newton iteration that stopped far from a solution (e.g. at an absurd h, where
+        !! the relative test is met by huge iterates) leaves the end state off the
+        !! constraint manifold: fail the solve then, with the tolerance `step` applies to
+        !! its start states.
+        subroutine check_end_state(status)
+            type(holosym_status_t), intent(inout) :: status
+            real(wp) :: position, velocity, scaled_position, scaled_velocity
+            self%q_end_work = q + self%dq_work
+            self%p_end_work = p + self%dp_work
+            call manifold_residuals(sys, self%q_end_work, self%p_end_work, position, &
+                                    velocity, scaled_position, scaled_velocity)
+            if (sys%m > 0) self%scheme%counters%gradients = self%scheme%counters%gradients + 1
+            end_velocity_residual = velocity
+            if (.not. (scaled_position <= self%manifold_tolerance .and. &
+                       scaled_velocity <= self%manifold_tolerance)) then
+                call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton stopped at a " // &
+                    "point off the constraints (end state max|phi| = " // real_str(position) // &
+                    ", max|Phi H_p| = " // real_str(velocity) // ")")
+            end if
+        end subroutine check_end_state
 
         !> Evaluations of this step from the scheme's counters.
         subroutine count_evaluations()
