@@ -117,6 +117,7 @@ contains
         type(constrained_integrator), intent(inout) :: integ !! the integrator
         integer, intent(in) :: variant !! 0 .. variant_count
         integ%newton%simplified = .false.
+        integ%newton%presolve = .false.
         integ%linear_solver = "real128"
         if (wp_is_double) integ%linear_solver = "lapack"
         integ%jacobian = "assembled"

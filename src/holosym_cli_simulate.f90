@@ -61,8 +61,9 @@ module holosym_cli_simulate
         integer :: steps = 0
         !> Write a row every `every` steps (t = 0 and the last step always).
         integer :: every = default_every
-        !> All speed options of the integrator (--fast); the same results to round-off.
-        logical :: fast = .false.
+        !> The plain path (--plain): full Newton with the working-precision LU and no speed
+        !! options; the same results to round-off, many times slower.
+        logical :: plain = .false.
         !> Output file; empty for the output unit given to `run_simulate`.
         character(len=:), allocatable :: output
         !> True when --help was given (nothing else is then checked).
@@ -141,9 +142,9 @@ contains
             "  --every INT    write a row every INT steps, >= 1; the rows at t = 0 and", &
             "                 after the last step are always written         [1]", &
             "  --output FILE  write the CSV to FILE instead of standard output", &
-            "  --fast         all speed options of the integrator (simplified Newton,", &
-            "                 real64 LU, real64 pre-solve, first-order increments):", &
-            "                 the same states to round-off, many times faster", &
+            "  --plain        full Newton with the real128 LU, none of the speed options", &
+            "                 (simplified Newton, real64 LU and pre-solve, first-order", &
+            "                 increments): the same states to round-off, many times slower", &
             "  -h, --help     show this help", &
             "", &
             "Columns: t,q1..qn,p1..pn,lambda1..lambdam,H,energy_error,constraint_residual,", &
@@ -195,13 +196,13 @@ contains
                     config%help = .true.
                 end if
                 return
-            case ("--fast")
+            case ("--plain")
                 if (has_inline) then
-                    call fail(status, "option --fast takes no value; got '" // &
+                    call fail(status, "option --plain takes no value; got '" // &
                         args(i)%text // "'")
                     return
                 end if
-                config%fast = .true.
+                config%plain = .true.
             case ("--system", "--M", "--m", "--N", "--n", "--G", "--g", "--h", "--T", "--t", &
                   "--steps", "--every", "--output")
                 call option_value(args, i, name, inline, has_inline, value, status)
@@ -388,11 +389,11 @@ contains
         if (.not. status%ok()) return
         call integrator%init(sys, config%order_m, config%order_n, config%gauss_points, status)
         if (.not. status%ok()) return
-        if (config%fast) then
-            integrator%newton%simplified = .true.
-            integrator%linear_solver = "mixed"
-            integrator%newton%presolve = .true.
-            integrator%linear_increments = .true.
+        if (config%plain) then
+            integrator%newton%simplified = .false.
+            integrator%newton%presolve = .false.
+            integrator%linear_solver = "native"
+            integrator%linear_increments = .false.
         end if
         unit = out_unit
         if (len(config%output) > 0) then

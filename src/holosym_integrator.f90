@@ -47,9 +47,10 @@ module holosym_integrator
 
     public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t
 
-    !> Default `linear_solver`: the library's LU in real128, LAPACK in the real64 build.
+    !> Default `linear_solver`: real64 LAPACK factors of a real64 Jacobian, refined with the
+    !! working-precision residual ('lapack' names the same in the real64 build).
     character(len=*), parameter :: default_linear_solver = &
-        trim(merge("lapack ", "real128", wp_is_double))
+        trim(merge("lapack", "mixed ", wp_is_double))
 
     !> What one step did and how well the constraints hold after it.
     type :: step_info_t
@@ -118,8 +119,9 @@ module holosym_integrator
 
     !> The symplectic integrator of a constrained Hamiltonian system for one (M, N, G).
     type :: constrained_integrator
-        !> Newton tolerances and limits (defaults from epsilon).
-        type(newton_settings_t) :: newton
+        !> Newton tolerances and limits (defaults from epsilon); simplified Newton and the
+        !! real64 pre-solve are on by default.
+        type(newton_settings_t) :: newton = newton_settings_t(simplified=.true., presolve=.true.)
         !> Start Newton from the previous step's polynomials when the state continues it.
         logical :: extrapolate = .true.
         !> LU of the Newton Jacobian: 'real128' (working precision) or 'mixed' (real64 LAPACK).
@@ -130,7 +132,7 @@ module holosym_integrator
         character(len=16) :: hessians = "user"
         !> Step results from the last iterate's evaluation updated to first order (saves an
         !! evaluation per step) instead of a new evaluation at the solution.
-        logical :: linear_increments = .false.
+        logical :: linear_increments = .true.
         !> Work counters since init (read them; `reset_statistics` zeroes them).
         type(integrator_stats_t) :: stats
         !> Largest scaled residual of an accepted start state (see manifold_residuals).
@@ -198,8 +200,10 @@ contains
                   self%q_end_work(sys%n), self%p_end_work(sys%n))
         allocate (self%last_x(scheme%nx), self%last_qa(sys%n), self%last_pa(sys%n), &
                   self%last_qb(sys%n), self%last_pb(sys%n))
+        ! A fresh workspace: nothing learnt by an earlier run (kept factors, the
+        ! quadratic-convergence constant) may change the results of this one.
+        self%workspace = newton_workspace_t()
         call self%workspace%setup(scheme%nx)
-        call self%workspace%invalidate()
         self%applied_modes = 0
         self%stats = integrator_stats_t()
         call set_status(status, HOLOSYM_SUCCESS, "")
@@ -319,6 +323,15 @@ contains
         self%scheme%linear_increments = self%linear_increments
     end subroutine apply_options
 
+    !> True when (q, p) is exactly the end state of the last successful step.
+    pure logical function continues_last_step(self, q, p)
+        class(constrained_integrator), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        continues_last_step = .false.
+        if (self%have_last) continues_last_step = all(q == self%last_qb) .and. &
+            all(p == self%last_pb)
+    end function continues_last_step
+
     !> True when any of the Newton speed options is in use.
     pure logical function fast_options(self)
         class(constrained_integrator), intent(in) :: self
@@ -357,9 +370,7 @@ contains
         lowered0 = self%scheme%counters%lowered_residuals
         call self%scheme%set_step(sys, q, p, h)
         extrapolated = .false.
-        if (self%extrapolate .and. self%have_last) then
-            extrapolated = all(q == self%last_qb) .and. all(p == self%last_pb)
-        end if
+        if (self%extrapolate) extrapolated = continues_last_step(self, q, p)
         if (extrapolated) then
             call self%scheme%extrapolated_guess(self%last_x, self%last_qa, self%last_pa, &
                                                 self%last_h, q, p, h, self%x_work)
@@ -569,6 +580,9 @@ contains
             call set_status(status, local%code, local%message)
             return
         end if
+        ! A run that does not continue the last step depends only on its arguments: the
+        ! factors and habits simplified Newton learnt in earlier runs are forgotten.
+        if (.not. continues_last_step(self, q, p)) call self%workspace%reset()
         t0 = 0
         if (present(start_time)) t0 = start_time
         allocate (q_error(size(q)), p_error(size(p)), summand(size(q)), total(size(q)))

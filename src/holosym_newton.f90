@@ -150,6 +150,9 @@ module holosym_newton
         procedure :: setup => workspace_setup
         !> Forget the kept factors.
         procedure :: invalidate => workspace_invalidate
+        !> Forget everything learnt from earlier solves (factors, kappa, preferences), so
+        !! that the next solves depend only on their own inputs.
+        procedure :: reset => workspace_reset
     end type newton_workspace_t
 
     abstract interface
@@ -190,6 +193,15 @@ contains
         class(newton_workspace_t), intent(inout) :: self
         self%factored = .false.
     end subroutine workspace_invalidate
+
+    !> Forget the kept factors and what earlier solves taught (kappa, refactoring habits).
+    elemental subroutine workspace_reset(self)
+        class(newton_workspace_t), intent(inout) :: self
+        self%factored = .false.
+        self%kappa = 0
+        self%prefer_fresh = .false.
+        self%fresh_streak = 0
+    end subroutine workspace_reset
 
     !> Solve F(x) = 0 by Newton's method from the first guess in `x`.
     !!

@@ -45,7 +45,7 @@ contains
             new_test("csv_header", test_csv_header), &
             new_test("dispatcher_exit_codes", test_dispatcher_exit_codes), &
             new_test("simulate_in_process", test_simulate_in_process), &
-            new_test("simulate_fast_same_rows", test_simulate_fast), &
+            new_test("simulate_plain_same_rows", test_simulate_plain), &
             new_test("simulate_output_file", test_simulate_output_file), &
             new_test("simulate_integrator_failure", test_simulate_failure)]
     end function cli_tests
@@ -470,9 +470,9 @@ contains
             summary%max_energy_error < h**4, "small nonzero energy error")
     end subroutine test_simulate_in_process
 
-    !> --fast is a flag (a value is rejected) and gives the rows of the default run to
-    !! round-off, with fewer real128 Newton iterations in the last column or equal.
-    subroutine test_simulate_fast(error)
+    !> --plain is a flag (a value is rejected) and gives the rows of the default (fast) run
+    !! to round-off.
+    subroutine test_simulate_plain(error)
         type(test_error_t), allocatable, intent(out) :: error
         type(simulate_config_t) :: config
         type(holosym_status_t) :: status
@@ -481,11 +481,11 @@ contains
         real(wp) :: a, b, difference
         character(len=*), parameter :: options = "--system linkage --M 3 --h 1/4 --steps 8"
 
-        call parse_line("--fast", config, status)
-        call check(error, status%ok() .and. config%fast, "--fast sets the flag")
-        call expect_rejection(error, "--fast=yes", ["--fast"])
-        call run_lines(options, plain, count_plain)
-        call run_lines(options // " --fast", fast, count_fast)
+        call parse_line("--plain", config, status)
+        call check(error, status%ok() .and. config%plain, "--plain sets the flag")
+        call expect_rejection(error, "--plain=yes", ["--plain"])
+        call run_lines(options // " --plain", plain, count_plain)
+        call run_lines(options, fast, count_fast)
         if (allocated(error)) return
         call check(error, count_plain == count_fast .and. count_plain == 10, "rows: " // &
             int_str(count_plain) // " and " // int_str(count_fast))
@@ -499,7 +499,7 @@ contains
             end do
         end do
         call check(error, difference <= max(1.0e-30_wp, 1.0e4_wp * epsilon(1.0_wp)), &
-            "--fast changes the state by " // real_str(difference))
+            "--plain changes the state by " // real_str(difference))
     contains
         subroutine run_lines(line, lines, count)
             character(len=*), intent(in) :: line
@@ -518,7 +518,7 @@ contains
             close (out)
             close (err)
         end subroutine run_lines
-    end subroutine test_simulate_fast
+    end subroutine test_simulate_plain
 
     subroutine test_simulate_output_file(error)
         type(test_error_t), allocatable, intent(out) :: error

@@ -57,6 +57,7 @@ contains
         integer, intent(in) :: variant
         character(len=:), allocatable, intent(out) :: label
         integ%newton%simplified = .false.
+        integ%newton%presolve = .false.
         integ%linear_solver = "real128"
         integ%jacobian = "assembled"
         integ%hessians = "differences"
@@ -262,11 +263,12 @@ contains
         type(constrained_integrator) :: integ
         type(step_info_t) :: info
         type(holosym_status_t) :: status
+        character(len=:), allocatable :: label
         real(wp) :: q(3), p(3)
         sys = spherical_pendulum()
         call sys%initial_state(q, p)
         call integ%init(sys, 2, 1, 3, status)
-        integ%hessians = "differences"
+        call configure(integ, 0, label)
         call integ%step(sys, q, p, run_h, info, status)
         call check_status_code(error, status%code, HOLOSYM_SUCCESS, "step")
         if (allocated(error)) return
