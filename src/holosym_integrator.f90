@@ -5,27 +5,28 @@
 !! grows like the square root of the step count), reports each step to an optional
 !! observer, and on failure keeps the state of the last good step.
 !!
-!! Speed options (components of the integrator; each leaves the results unchanged to
-!! round-off, because every path iterates the same working-precision residual to the
-!! same tolerance):
+!! Speed options (components of the integrator; every path ends by iterating the same
+!! working-precision residual to the same tolerance, so the results agree to round-off).
+!! Defaults first; the second value gives the plain path (full Newton, working-precision
+!! LU), which is also tried automatically when a fast solve fails:
 !!
-!! - `newton%simplified` (`.false.` | `.true.`): keep the factorised Jacobian across
-!!   iterations and steps while it contracts.
-!! - `linear_solver` (`'real128'` | `'mixed'`): factor in working precision, or in real64
-!!   with LAPACK dgetrf/dgetrs.
-!! - `newton%presolve` (`.false.` | `.true.`, with `'mixed'`): first iterate the residual
+!! - `newton%simplified` (`.true.` | `.false.`): keep the factorised Jacobian across
+!!   iterations and steps; refactor when a cost model says it pays.
+!! - `linear_solver` (`'mixed'` | `'real128'`): a real64 Jacobian factored by LAPACK
+!!   (iterative refinement of the working-precision residual), or the working-precision LU.
+!! - `newton%presolve` (`.true.` | `.false.`, with `'mixed'`): first iterate the residual
 !!   with the scheme's sums in real64 arithmetic, then refine in working precision.
+!! - `linear_increments` (`.true.` | `.false.`): the step's results from the evaluation at
+!!   the last Newton iterate, updated to first order across the last (tiny) correction,
+!!   instead of one more evaluation at the solution.
 !! - `jacobian` (`'assembled'` | `'residual-differences'`): from second derivatives, or
-!!   differences of the residual.
+!!   differences of the residual (for checks).
 !! - `hessians` (`'user'` | `'differences'`): the system's `hessian` bindings, or differences
 !!   of its gradients.
 !! - `extrapolate` (`.true.` | `.false.`): first guess from the previous step's polynomials.
-!! - `linear_increments` (`.false.` | `.true.`): the step's results from the evaluation at
-!!   the last Newton iterate, updated to first order across the last (tiny) correction,
-!!   instead of one more evaluation at the solution (differences below 1e-32).
 !!
-!! `'native'` is a synonym of `'real128'` and `'lapack'` of `'mixed'`; in the real64 build
-!! (`-DHOLOSYM_REAL64`) the default linear solver is `'lapack'`. `stats` counts the work.
+!! `'native'` is a synonym of `'real128'` and `'lapack'` of `'mixed'` (the name of the
+!! default in the real64 build, `-DHOLOSYM_REAL64`). `stats` counts the work.
 module holosym_integrator
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, wp_is_double
