@@ -372,12 +372,7 @@ contains
         call self%scheme%set_step(sys, q, p, h)
         extrapolated = .false.
         if (self%extrapolate) extrapolated = continues_last_step(self, q, p)
-        if (extrapolated) then
-            call self%scheme%extrapolated_guess(self%last_x, self%last_qa, self%last_pa, &
-                                                self%last_h, q, p, h, self%x_work)
-        else
-            call self%scheme%constant_guess(self%x_work)
-        end if
+        call first_guess()
         ! Increments are compared with the size of the state, not with themselves.
         scale = max(maxval(abs(q)), maxval(abs(p)))
         if (scale <= 0) scale = 1
@@ -390,12 +385,7 @@ contains
             ! (full Newton, working-precision LU, no pre-solve) gets its chance.
             call self%workspace%invalidate()
             self%workspace%linear_solver = LINEAR_SOLVER_NATIVE
-            if (extrapolated) then
-                call self%scheme%extrapolated_guess(self%last_x, self%last_qa, self%last_pa, &
-                                                    self%last_h, q, p, h, self%x_work)
-            else
-                call self%scheme%constant_guess(self%x_work)
-            end if
+            call first_guess()
             call solve_with_retries(plain_settings(self%newton))
             call self%workspace%invalidate()
             self%applied_modes = 0
@@ -446,21 +436,13 @@ contains
         !! and the end state is checked against the constraints.
         subroutine solve_with_retries(settings)
             type(newton_settings_t), intent(in) :: settings
-            call newton_solve(self%scheme, self%x_work, settings, scale, report, status, &
-                              self%workspace)
-            call tally()
+            call attempt(settings)
             if (.not. status%ok() .and. report%reused_factors .and. &
-                status%code /= HOLOSYM_NONFINITE_VALUE) then
-                call newton_solve(self%scheme, self%x_work, settings, scale, report, status, &
-                                  self%workspace)
-                call tally()
-            end if
+                status%code /= HOLOSYM_NONFINITE_VALUE) call attempt(settings)
             if (.not. status%ok() .and. extrapolated .and. &
                 status%code /= HOLOSYM_NONFINITE_VALUE) then
                 call self%scheme%constant_guess(self%x_work)
-                call newton_solve(self%scheme, self%x_work, settings, scale, report, status, &
-                                  self%workspace)
-                call tally()
+                call attempt(settings)
             end if
             if (.not. status%ok()) return
             call self%scheme%increments(self%x_work, self%dq_work, self%dp_work, status)
@@ -473,11 +455,24 @@ contains
             call check_end_state(status)
         end subroutine solve_with_retries
 
-        !> Work of the last solve.
-        subroutine tally()
+        !> x_work = the previous step's polynomials extrapolated, or the constant guess.
+        subroutine first_guess()
+            if (extrapolated) then
+                call self%scheme%extrapolated_guess(self%last_x, self%last_qa, self%last_pa, &
+                                                    self%last_h, q, p, h, self%x_work)
+            else
+                call self%scheme%constant_guess(self%x_work)
+            end if
+        end subroutine first_guess
+
+        !> One Newton solve from x_work, its work added to the step's.
+        subroutine attempt(settings)
+            type(newton_settings_t), intent(in) :: settings
+            call newton_solve(self%scheme, self%x_work, settings, scale, report, status, &
+                              self%workspace)
             iterations = iterations + report%iterations
             factorizations = factorizations + report%factorizations
-        end subroutine tally
+        end subroutine attempt
 
         !> A Newton iteration that stopped far from a solution (e.g. at an absurd h, where
         !! the relative test is met by huge iterates) leaves the end state off the

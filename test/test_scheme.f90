@@ -39,6 +39,17 @@ module test_scheme
         procedure :: constraint_jacobian => line_constraint_jacobian
     end type line_particle
 
+    abstract interface
+        !> One case of the lowered-evaluation tests.
+        subroutine lowered_case(error, sys, q, p, order_m, order_n, gauss_points)
+            import :: test_error_t, constrained_hamiltonian, wp
+            type(test_error_t), allocatable, intent(inout) :: error
+            class(constrained_hamiltonian), intent(in), target :: sys
+            real(wp), intent(in) :: q(:), p(:)
+            integer, intent(in) :: order_m, order_n, gauss_points
+        end subroutine lowered_case
+    end interface
+
 contains
 
     !> The tests of this suite.
@@ -507,10 +518,11 @@ contains
         call check(error, any(cold /= warm), "Jacobian at a different x is unchanged (stale cache)")
     end subroutine jacobian_cache
 
-    !> residual_lowered (sums in real64) equals residual to real64 round-off, on both paper
-    !! systems and several orders, and is not identical to it in real128 (it is lowered).
-    subroutine lowered_residual(error)
-        type(test_error_t), allocatable, intent(out) :: error
+    !> Run `check_case` on the paper systems at (3,2,4) (linkage), (2,1,3) and (6,5,7)
+    !! (pendulum).
+    subroutine on_lowered_cases(error, check_case)
+        type(test_error_t), allocatable, intent(inout) :: error
+        procedure(lowered_case) :: check_case
         type(spring_linkage), target :: linkage
         type(spherical_pendulum), target :: sphere
         real(wp) :: q6(6), p6(6), q3(3), p3(3)
@@ -518,83 +530,94 @@ contains
         call linkage%initial_state(q6, p6)
         sphere = spherical_pendulum()
         call sphere%initial_state(q3, p3)
-        call compare(linkage, q6, p6, 3, 2, 4)
-        call compare(sphere, q3, p3, 2, 1, 3)
-        call compare(sphere, q3, p3, 6, 5, 7)
-    contains
-        subroutine compare(sys, q, p, order_m, order_n, gauss_points)
-            class(constrained_hamiltonian), intent(in), target :: sys
-            real(wp), intent(in) :: q(:), p(:)
-            integer, intent(in) :: order_m, order_n, gauss_points
-            type(discrete_scheme) :: scheme
-            type(holosym_status_t) :: status
-            real(wp), allocatable :: x(:), exact(:), lowered(:)
-            real(wp) :: difference, size_f
-            call setup(error, scheme, sys, order_m, order_n, gauss_points, q, p, 0.5_wp)
-            if (allocated(error)) return
-            allocate (x(scheme%nx), exact(scheme%nx), lowered(scheme%nx))
-            call fixed_seed(11)
-            call random_number(x)
-            x = 1.0e-2_wp * (x - 0.5_wp)
-            call scheme%residual(x, exact, status)
-            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "residual")
-            call scheme%residual_lowered(x, lowered, status)
-            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "residual_lowered")
-            if (allocated(error)) return
-            difference = maxval(abs(exact - lowered))
-            size_f = max(maxval(abs(exact)), maxval(abs(p)), 1.0_wp)
-            call check(error, difference <= 1.0e3_wp * epsilon(1.0_dp) * size_f, &
-                orders_str(order_m, order_n, gauss_points) // ": lowered residual differs by " &
-                // real_str(difference))
-            if (precision(1.0_wp) > precision(1.0_dp)) call check(error, difference > 0, &
-                orders_str(order_m, order_n, gauss_points) // ": lowered residual is exact")
-        end subroutine compare
+        call check_case(error, linkage, q6, p6, 3, 2, 4)
+        call check_case(error, sphere, q3, p3, 2, 1, 3)
+        call check_case(error, sphere, q3, p3, 6, 5, 7)
+    end subroutine on_lowered_cases
+
+    !> A scheme for a step of h = 1/2 from (q, p) and a reproducible random x of size 1e-2.
+    subroutine lowered_setup(error, scheme, sys, q, p, order_m, order_n, gauss_points, x)
+        type(test_error_t), allocatable, intent(inout) :: error
+        type(discrete_scheme), intent(inout) :: scheme
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:)
+        integer, intent(in) :: order_m, order_n, gauss_points
+        real(wp), allocatable, intent(out) :: x(:)
+        call setup(error, scheme, sys, order_m, order_n, gauss_points, q, p, 0.5_wp)
+        if (allocated(error)) return
+        allocate (x(scheme%nx))
+        call fixed_seed(11)
+        call random_number(x)
+        x = 1.0e-2_wp * (x - 0.5_wp)
+    end subroutine lowered_setup
+
+    !> residual_lowered (sums in real64) equals residual to real64 round-off, on both paper
+    !! systems and several orders, and is not identical to it in real128 (it is lowered).
+    subroutine lowered_residual(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        call on_lowered_cases(error, residual_case)
     end subroutine lowered_residual
+
+    !> One case of `lowered_residual`.
+    subroutine residual_case(error, sys, q, p, order_m, order_n, gauss_points)
+        type(test_error_t), allocatable, intent(inout) :: error
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:)
+        integer, intent(in) :: order_m, order_n, gauss_points
+        type(discrete_scheme) :: scheme
+        type(holosym_status_t) :: status
+        real(wp), allocatable :: x(:), exact(:), lowered(:)
+        real(wp) :: difference, size_f
+        call lowered_setup(error, scheme, sys, q, p, order_m, order_n, gauss_points, x)
+        if (allocated(error)) return
+        allocate (exact(scheme%nx), lowered(scheme%nx))
+        call scheme%residual(x, exact, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "residual")
+        call scheme%residual_lowered(x, lowered, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "residual_lowered")
+        if (allocated(error)) return
+        difference = maxval(abs(exact - lowered))
+        size_f = max(maxval(abs(exact)), maxval(abs(p)), 1.0_wp)
+        call check(error, difference <= 1.0e3_wp * epsilon(1.0_dp) * size_f, &
+            orders_str(order_m, order_n, gauss_points) // ": lowered residual differs by " &
+            // real_str(difference))
+        if (precision(1.0_wp) > precision(1.0_dp)) call check(error, difference > 0, &
+            orders_str(order_m, order_n, gauss_points) // ": lowered residual is exact")
+    end subroutine residual_case
 
     !> jacobian_lowered (assembled in real64 arithmetic) equals the working-precision
     !! Jacobian rounded, to real64 round-off, on both paper systems; also after a lowered
     !! evaluation at the same x.
     subroutine lowered_jacobian(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(spring_linkage), target :: linkage
-        type(spherical_pendulum), target :: sphere
-        real(wp) :: q6(6), p6(6), q3(3), p3(3)
-        linkage = spring_linkage()
-        call linkage%initial_state(q6, p6)
-        sphere = spherical_pendulum()
-        call sphere%initial_state(q3, p3)
-        call compare(linkage, q6, p6, 3, 2, 4)
-        call compare(sphere, q3, p3, 2, 1, 3)
-        call compare(sphere, q3, p3, 6, 5, 7)
-    contains
-        subroutine compare(sys, q, p, order_m, order_n, gauss_points)
-            class(constrained_hamiltonian), intent(in), target :: sys
-            real(wp), intent(in) :: q(:), p(:)
-            integer, intent(in) :: order_m, order_n, gauss_points
-            type(discrete_scheme) :: scheme
-            type(holosym_status_t) :: status
-            real(wp), allocatable :: x(:), f(:), full(:, :)
-            real(dp), allocatable :: lowered(:, :)
-            real(wp) :: difference
-            call setup(error, scheme, sys, order_m, order_n, gauss_points, q, p, 0.5_wp)
-            if (allocated(error)) return
-            allocate (x(scheme%nx), f(scheme%nx), full(scheme%nx, scheme%nx), &
-                      lowered(scheme%nx, scheme%nx))
-            call fixed_seed(13)
-            call random_number(x)
-            x = 1.0e-2_wp * (x - 0.5_wp)
-            call scheme%jacobian(x, full, status)
-            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "jacobian")
-            call scheme%residual_lowered(x, f, status)
-            call scheme%jacobian_lowered(x, lowered, status)
-            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "jacobian_lowered")
-            if (allocated(error)) return
-            difference = maxval(abs(full - real(lowered, wp)))
-            call check(error, difference <= 1.0e3_wp * epsilon(1.0_dp) * &
-                max(1.0_wp, maxval(abs(full))), orders_str(order_m, order_n, gauss_points) &
-                // ": real64 Jacobian differs by " // real_str(difference))
-        end subroutine compare
+        call on_lowered_cases(error, jacobian_case)
     end subroutine lowered_jacobian
+
+    !> One case of `lowered_jacobian`.
+    subroutine jacobian_case(error, sys, q, p, order_m, order_n, gauss_points)
+        type(test_error_t), allocatable, intent(inout) :: error
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:)
+        integer, intent(in) :: order_m, order_n, gauss_points
+        type(discrete_scheme) :: scheme
+        type(holosym_status_t) :: status
+        real(wp), allocatable :: x(:), f(:), full(:, :)
+        real(dp), allocatable :: lowered(:, :)
+        real(wp) :: difference
+        call lowered_setup(error, scheme, sys, q, p, order_m, order_n, gauss_points, x)
+        if (allocated(error)) return
+        allocate (f(scheme%nx), full(scheme%nx, scheme%nx), lowered(scheme%nx, scheme%nx))
+        call scheme%jacobian(x, full, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "jacobian")
+        call scheme%residual_lowered(x, f, status)
+        call scheme%jacobian_lowered(x, lowered, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "jacobian_lowered")
+        if (allocated(error)) return
+        difference = maxval(abs(full - real(lowered, wp)))
+        call check(error, difference <= 1.0e3_wp * epsilon(1.0_dp) * &
+            max(1.0_wp, maxval(abs(full))), orders_str(order_m, order_n, gauss_points) &
+            // ": real64 Jacobian differs by " // real_str(difference))
+    end subroutine jacobian_case
 
     !> An evaluation cached by residual_lowered is not taken for the exact residual or the
     !! increments at the same x: they equal those of a scheme that never lowered.
