@@ -48,6 +48,8 @@ module holosym_newton
     !> Simplified Newton: after kept factors proved too stale, later solves refactor at
     !! their first iterate; every this many solves the kept factors are tried again.
     integer, parameter :: retry_reuse_every = 8
+    !> Safety factor on the error predicted from the contraction rate (not the plain path).
+    real(wp), parameter :: rate_margin = 8
     !> The pre-solve (`settings%presolve`) stops when its corrections reach this size ...
     real(wp), parameter :: lowered_tolerance = 64 * real(epsilon(1.0_dp), wp)
     !> ... or stop decreasing below this one (real64 round-off of the lowered residual).
@@ -395,7 +397,14 @@ contains
             end if
             converged = correction <= target
             if (phase_iterations > 1 .and. rate < 1) then
-                converged = converged .or. rate / (1 - rate) * correction <= target
+                ! Linear contraction (simplified Newton, real64 factors) varies from one
+                ! iteration to the next: trust the predicted error only with a margin.
+                if (plain) then
+                    converged = converged .or. rate / (1 - rate) * correction <= target
+                else
+                    converged = converged .or. rate / (1 - rate) * correction <= &
+                        target / rate_margin
+                end if
             end if
             if (lowered) then
                 ! Corrections no longer decreasing at this size: real64 round-off.
