@@ -410,9 +410,13 @@ contains
                 ! Corrections no longer decreasing at this size: real64 round-off.
                 converged = converged .or. (correction >= previous .and. &
                                             correction <= lowered_floor)
-            else if (plain .or. fresh) then
-                converged = converged .or. (correction >= previous .and. &
-                                            correction <= settings%stagnation_level)
+            else if (plain .or. fresh .or. phase_iterations > 1) then
+                ! Corrections that stop decreasing this small are the round-off floor of the
+                ! problem (kept factors contract well above it or are refreshed); so are
+                ! fresh factors that no longer contract there.
+                converged = converged .or. (correction <= settings%stagnation_level .and. &
+                    (correction >= previous .or. (.not. plain .and. factor_age == 2 .and. &
+                                                  rate > mixed_rate_limit)))
             end if
             if (ws%factors_in_dp) then
                 rate_floor = real(epsilon(1.0_dp), wp) * nx
@@ -440,22 +444,28 @@ contains
                 else
                     growth = 0
                 end if
-                ! A fresh real64 factorisation that contracts poorly: the matrix is too
-                ! ill-conditioned for real64; continue in working precision.
-                if (ws%factors_in_dp .and. iter >= mixed_rate_iteration .and. &
-                    rate > mixed_rate_limit) then
-                    native_only = .true.
-                    lowered = .false.
-                    refactor = .true.
-                end if
+                ! Full Newton: consecutive fresh real64 factorisations that contract poorly
+                ! near the solution (where nonlinearity cannot explain it): the matrix is
+                ! too ill-conditioned for real64; continue in working precision.
+                if (.not. settings%simplified .and. ws%factors_in_dp .and. &
+                    iter >= mixed_rate_iteration .and. rate > mixed_rate_limit .and. &
+                    previous <= lowered_floor .and. correction > settings%stagnation_level) &
+                    call use_working_precision()
             else if (phase_iterations > 1) then
-                ! Simplified Newton: refactor here when the kept factors contract poorly or
-                ! fresh ones are predicted to need fewer evaluations in all.
-                cost = settings%jacobian_cost
-                if (lowered) cost = cost / lowered_cost_ratio
-                refactor = rate > settings%contraction_limit .or. refactor_pays(rate, &
-                    correction, ws%kappa, rate_floor, target, cost)
-                if (refactor .and. report%reused_factors) ws%prefer_fresh = .true.
+                if (factor_age == 2 .and. ws%factors_in_dp .and. rate > mixed_rate_limit &
+                    .and. fresh_correction <= lowered_floor .and. &
+                    correction > settings%stagnation_level) then
+                    ! Fresh real64 factors taken near the solution contract poorly.
+                    call use_working_precision()
+                else
+                    ! Simplified Newton: refactor here when the kept factors contract poorly
+                    ! or fresh ones are predicted to need fewer evaluations in all.
+                    cost = settings%jacobian_cost
+                    if (lowered) cost = cost / lowered_cost_ratio
+                    refactor = rate > settings%contraction_limit .or. refactor_pays(rate, &
+                        correction, ws%kappa, rate_floor, target, cost)
+                    if (refactor .and. report%reused_factors) ws%prefer_fresh = .true.
+                end if
             end if
             if (iter == settings%max_iterations) then
                 call fail(HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged after " // &
@@ -474,6 +484,13 @@ contains
         call set_status(status, HOLOSYM_SUCCESS, "")
 
     contains
+
+        !> Continue with working-precision factors (and residuals) from the next iteration.
+        subroutine use_working_precision()
+            native_only = .true.
+            lowered = .false.
+            refactor = .true.
+        end subroutine use_working_precision
 
         subroutine fail(code, message)
             integer, intent(in) :: code
