@@ -363,7 +363,7 @@ contains
         real(wp) :: scale, max_phi, end_velocity_residual
         type(newton_report_t) :: report
         logical :: extrapolated
-        integer :: order_m, order_n, gauss_points, l, iterations, factorizations
+        integer :: order_m, order_n, gauss_points, iterations, factorizations
         integer(int64) :: residuals0, gradients0, hessians0, lowered0
 
         status%code = HOLOSYM_SUCCESS

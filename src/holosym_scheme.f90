@@ -192,7 +192,7 @@ contains
         integer, intent(in) :: m            !! constraints, 0 <= m < n
         type(holosym_status_t), intent(out), optional :: status !! outcome
         real(wp), allocatable :: unused(:, :), mom_weights(:)
-        integer :: g, i, j, k
+        integer :: g, i, k
 
         if (order_m < 1 .or. order_n < 0 .or. gauss_points < 1) then
             call set_status(status, HOLOSYM_INVALID_ORDER, "need M >= 1, N >= 0, G >= 1; got M = " &
@@ -527,14 +527,13 @@ contains
         real(wp), intent(in) :: x(:)   !! unknowns
         real(wp), intent(out) :: f(:)  !! residual
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: n, m, g, i, j, k, l, row, base
+        integer :: n, g, i, j, k, row, base
         real(wp) :: coefficient
 
         self%counters%residuals = self%counters%residuals + 1
         call evaluate(self, x, status)
         if (.not. status%ok()) return
         n = self%n
-        m = self%m
         ! R_p,j = sum_k SCA(j,k) z_k - h sum_g w_g C_gj Hp_g.
         do j = 0, self%order_n
             row = j * n
