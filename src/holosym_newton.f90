@@ -240,10 +240,10 @@ contains
         type(newton_report_t), intent(out) :: report
         type(newton_workspace_t), intent(inout) :: ws
         type(holosym_status_t), intent(inout), optional :: status
-        real(wp) :: correction, previous, tolerance, pivot_ratio, rate, row_max, rate_floor
+        real(wp) :: correction, previous, tolerance, pivot_ratio, rate, rate_floor
         real(wp) :: fresh_correction, target, cost
         real(dp) :: pivot_ratio_dp
-        integer :: info, iter, growth, nx, i, factor_age, phase_iterations
+        integer :: info, iter, growth, nx, factor_age, phase_iterations
         logical :: plain, refactor, fresh, native_only, lowered, converged
         type(holosym_status_t) :: eval_status
 
@@ -300,7 +300,6 @@ contains
                     return
                 end if
                 report%factorizations = report%factorizations + 1
-                info = 1
                 ws%factors_in_dp = .false.
                 ! Mixed precision: a real64 Jacobian (assembled in real64 arithmetic by
                 ! systems that can), checked, equilibrated and factored in real64.
@@ -332,17 +331,7 @@ contains
                             "iteration " // int_str(iter))
                         return
                     end if
-                    ! Row equilibration makes the pivot test independent of the equations'
-                    ! units; scaling by powers of two is exact and needs no division.
-                    do i = 1, nx
-                        row_max = maxval(abs(ws%jac(i, :)))
-                        if (row_max > 0) then
-                            ws%row_scale(i) = set_exponent(1.0_wp, 1 - exponent(row_max))
-                            ws%jac(i, :) = ws%jac(i, :) * ws%row_scale(i)
-                        else
-                            ws%row_scale(i) = 1
-                        end if
-                    end do
+                    call equilibrate_rows(ws%jac, ws%row_scale)
                     call lu_factor(ws%jac, ws%pivots, info, tolerance, pivot_ratio)
                 end if
                 if (info /= 0) then
@@ -522,6 +511,25 @@ contains
         call self%jacobian(x, full, status)
         jac = real(full, dp)
     end subroutine default_jacobian_lowered
+
+    !> Scale each row of a working-precision matrix by a power of two so that its largest
+    !! entry lies in [1, 2): the pivot test then does not depend on the equations' units,
+    !! and the scaling is exact (zero rows keep scale 1).
+    pure subroutine equilibrate_rows(a, row_scale)
+        real(wp), intent(inout) :: a(:, :)       !! matrix, scaled in place
+        real(wp), intent(out) :: row_scale(:)   !! scale of each row
+        real(wp) :: row_max
+        integer :: i
+        do i = 1, size(a, 1)
+            row_max = maxval(abs(a(i, :)))
+            if (row_max > 0) then
+                row_scale(i) = set_exponent(1.0_wp, 1 - exponent(row_max))
+                a(i, :) = a(i, :) * row_scale(i)
+            else
+                row_scale(i) = 1
+            end if
+        end do
+    end subroutine equilibrate_rows
 
     !> Scale each row of a real64 matrix by a power of two so that its largest entry lies
     !! in [1, 2) (exact; zero rows keep scale 1); the scales are returned in working precision.
