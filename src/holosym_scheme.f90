@@ -22,11 +22,17 @@ module holosym_scheme
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
         difference_constraint_hessian
     use holosym_newton, only: nonlinear_system, all_finite, all_finite_matrix
-    use holosym_assembly_wp, only: assembly_tables_wp => assembly_tables, &
-        assembly_hessians_wp => assembly_hessians, assemble_blocks_wp => assemble_blocks, &
+    use holosym_scheme_kernels_wp, only: scheme_tables_wp => scheme_tables, &
+        step_constants_wp => step_constants, assembly_hessians_wp => assembly_hessians, &
+        assemble_blocks_wp => assemble_blocks, set_step_constants_wp => set_step_constants, &
+        allocate_step_constants_wp => allocate_step_constants, gauss_state_wp => gauss_state, &
+        d_sums_wp => d_sums, momentum_rows_wp => momentum_rows, &
         entry_zero, entry_constant, entry_varying
-    use holosym_assembly_dp, only: assembly_tables_dp => assembly_tables, &
-        assembly_hessians_dp => assembly_hessians, assemble_blocks_dp => assemble_blocks
+    use holosym_scheme_kernels_dp, only: scheme_tables_dp => scheme_tables, &
+        step_constants_dp => step_constants, assembly_hessians_dp => assembly_hessians, &
+        assemble_blocks_dp => assemble_blocks, set_step_constants_dp => set_step_constants, &
+        allocate_step_constants_dp => allocate_step_constants, gauss_state_dp => gauss_state, &
+        d_sums_dp => d_sums, momentum_rows_dp => momentum_rows
     implicit none
     private
 
@@ -65,14 +71,12 @@ module holosym_scheme
 
     !> real64 copies of the tables and real64 workspace of `residual_lowered`.
     type :: lowered_tables_t
-        real(dp), allocatable :: b(:, :), c(:, :), wb(:, :), wc(:, :)  ! as in the scheme
-        real(dp), allocatable :: sum_a(:)
-        type(assembly_tables_dp) :: tab      ! the assembly sums in real64
+        type(scheme_tables_dp) :: tab        ! the tables in real64
+        type(step_constants_dp) :: step      ! the step constants in real64
         type(assembly_hessians_dp) :: hess   ! second derivatives in real64
         real(dp), allocatable :: phi_jac(:, :, :) ! m x n x (0:M)
-        real(dp), allocatable :: x(:), qa(:), pa(:), q(:), p(:)       ! nx, n, n, n, n
+        real(dp), allocatable :: x(:), q(:), p(:)                     ! nx, n, n
         real(dp), allocatable :: hq(:, :), hp(:, :), d(:, :), f(:)    ! n x G, n x G, n x (0:M), nx
-        real(dp) :: h = 0
     end type lowered_tables_t
 
     !> The scheme for one (M, N, G) and one problem size (n, m), with its workspace.
@@ -101,22 +105,20 @@ module holosym_scheme
         real(wp), allocatable :: b(:, :)  !! B(g, i) = rho_i(tau_g), G x (0:M)
         real(wp), allocatable :: a(:, :)  !! A(g, i) = rho_i'(tau_g), G x (0:M)
         real(wp), allocatable :: c(:, :)  !! C(g, j) = chi_j(tau_g), G x (0:N)
-        ! Precomputed quadrature sums.
-        real(wp), allocatable, private :: sum_a(:)      ! (0:M) sum_g w_g A_gi
-        ! The sums of the Jacobian assembly (sca and sac also enter the residual):
+        ! Precomputed tables: B, C, their products with the Gauss weights w_g
+        ! WB(g,i) = w_g B_gi, WC(g,j) = w_g C_gj, SUM_A(i) = sum_g w_g A_gi, and the
+        ! quadrature sums of the Jacobian assembly (sca and sac also enter the residual):
         ! SCA(j,k) = sum_g w_g C_gj A_gk, SCB = .. C_gj B_gk, SCC = .. C_gj C_gl,
         ! SAC(i,l) = .. A_gi C_gl, SBB = .. B_gi B_gk, SBC = .. B_gi C_gl, and their
         ! per-Gauss-point products WCB(g,j,k) = w_g C_gj B_gk, WCC, WBB, WBC.
-        type(assembly_tables_wp), private :: tab
-        real(wp), allocatable, private :: wb(:, :)      ! (G, 0:M) w_g B_gi
-        real(wp), allocatable, private :: wc(:, :)      ! (G, 0:N) w_g C_gj
+        type(scheme_tables_wp), private :: tab
         ! Extrapolation to the next step of equal size: rho_i(1 + d_k), chi_j(1 + c_l).
         real(wp), allocatable, private :: extrap_q(:, :) ! (0:M node k, 0:M basis i)
         real(wp), allocatable, private :: extrap_p(:, :) ! (0:N node l, 0:N basis j)
         ! Step context (valid during one solve).
         class(constrained_hamiltonian), pointer, private :: sys => null()
-        real(wp), allocatable, private :: qa(:), pa(:)
-        real(wp), private :: h = 0
+        ! q_a, p_a, h and the sums that depend only on them.
+        type(step_constants_wp), private :: step
         ! Workspace of the last evaluation, reused by the Jacobian at the same x.
         real(wp), allocatable, private :: cached_x(:)
         logical, private :: cache_valid = .false.
@@ -243,16 +245,8 @@ contains
         call lagrange_matrices(self%mom_nodes, self%gauss_nodes, self%c, unused)
 
         ! Quadrature sums of the parts that do not involve the user's functions.
-        allocate (self%wb(gauss_points, 0:order_m), self%wc(gauss_points, 0:order_n))
-        do g = 1, gauss_points
-            self%wb(g, :) = self%gauss_weights(g) * self%b(g, :)
-            self%wc(g, :) = self%gauss_weights(g) * self%c(g, :)
-        end do
-        allocate (self%sum_a(0:order_m))
-        do i = 0, order_m
-            self%sum_a(i) = sum(self%gauss_weights * self%a(:, i))
-        end do
-        call assembly_sums(self, self%tab)
+        call scheme_sums(self, self%tab)
+        call allocate_step_constants_wp(self%step, order_m, order_n, gauss_points, n)
         allocate (self%extrap_q(0:order_m, 0:order_m), self%extrap_p(0:order_n, 0:order_n))
         do k = 0, order_m
             self%extrap_q(k, :) = lagrange_values(self%disp_nodes, 1 + self%disp_nodes(k))
@@ -261,22 +255,14 @@ contains
             self%extrap_p(k, :) = lagrange_values(self%mom_nodes, 1 + self%mom_nodes(k))
         end do
 
-        ! Allocate first: assignment of an expression would make every lower bound 1.
-        allocate (self%low%b(gauss_points, 0:order_m), self%low%c(gauss_points, 0:order_n), &
-                  self%low%wb(gauss_points, 0:order_m), self%low%wc(gauss_points, 0:order_n), &
-                  self%low%sum_a(0:order_m), self%low%phi_jac(m, n, 0:order_m))
-        self%low%b = real(self%b, dp)
-        self%low%c = real(self%c, dp)
-        self%low%wb = real(self%wb, dp)
-        self%low%wc = real(self%wc, dp)
-        self%low%sum_a = real(self%sum_a, dp)
-        call lowered_assembly_sums(self%tab, self%low%tab)
+        call lowered_sums(self%tab, self%low%tab)
+        call allocate_step_constants_dp(self%low%step, order_m, order_n, gauss_points, n)
         call allocate_hessians_dp(self%low%hess, n, m, order_m, gauss_points, self%nx)
-        allocate (self%low%x(self%nx), self%low%qa(n), self%low%pa(n), self%low%q(n), &
+        allocate (self%low%phi_jac(m, n, 0:order_m), self%low%x(self%nx), self%low%q(n), &
                   self%low%p(n), self%low%hq(n, gauss_points), self%low%hp(n, gauss_points), &
                   self%low%d(n, 0:order_m), self%low%f(self%nx))
 
-        allocate (self%qa(n), self%pa(n), self%cached_x(self%nx), self%hessian_x(self%nx))
+        allocate (self%cached_x(self%nx), self%hessian_x(self%nx))
         allocate (self%q_nodes(n, 0:order_m), self%d_values(n, 0:order_m))
         allocate (self%q_gauss(n, gauss_points))
         allocate (self%p_gauss(n, gauss_points), self%hq_gauss(n, gauss_points))
@@ -296,11 +282,11 @@ contains
         class(discrete_scheme), intent(inout) :: self
         if (allocated(self%disp_nodes)) deallocate (self%disp_nodes, self%lobatto_weights, &
             self%mom_nodes, self%gauss_nodes, self%gauss_weights, self%b, self%a, self%c)
-        if (allocated(self%wb)) deallocate (self%wb, self%wc, self%sum_a, self%extrap_q, &
-            self%extrap_p)
-        self%tab = assembly_tables_wp()
+        if (allocated(self%extrap_q)) deallocate (self%extrap_q, self%extrap_p)
+        self%tab = scheme_tables_wp()
+        self%step = step_constants_wp()
         self%hess = assembly_hessians_wp()
-        if (allocated(self%qa)) deallocate (self%qa, self%pa, self%cached_x, self%hessian_x, &
+        if (allocated(self%cached_x)) deallocate (self%cached_x, self%hessian_x, &
             self%q_nodes, &
             self%d_values, self%q_gauss, self%p_gauss, self%hq_gauss, self%hp_gauss, &
             self%phi_jac, self%velocity, self%q_work, self%phi_work)
@@ -319,14 +305,11 @@ contains
         real(wp), intent(in) :: pa(:) !! start momenta (n)
         real(wp), intent(in) :: h     !! step size
         self%sys => sys
-        self%qa = qa
-        self%pa = pa
-        self%h = h
+        call set_step_constants_wp(self%tab, self%step, qa, pa, h)
+        call set_step_constants_dp(self%low%tab, self%low%step, real(qa, dp), real(pa, dp), &
+                                   real(h, dp))
         self%cache_valid = .false.
         self%step_hessians = .false.
-        self%low%qa = real(qa, dp)
-        self%low%pa = real(pa, dp)
-        self%low%h = real(h, dp)
         ! q_0 = q_a during the whole solve: its constraint Jacobian is evaluated once.
         self%q_nodes(:, 0) = qa
         if (self%m > 0) call sys%constraint_jacobian(qa, self%phi_jac(:, :, 0))
@@ -371,8 +354,7 @@ contains
         real(wp), intent(in) :: x(:)
         type(holosym_status_t), intent(out) :: status
         logical, intent(in), optional :: lowered_ok
-        integer :: n, m, g, i, j, l, base, mu0
-        real(wp) :: coefficient
+        integer :: g
 
         status%code = HOLOSYM_SUCCESS
         if (self%cache_valid) then
@@ -384,44 +366,16 @@ contains
             end if
         end if
         self%cache_valid = .false.
-        n = self%n
-        m = self%m
         do g = 1, self%gauss_points
-            self%q_gauss(:, g) = self%qa
-            do i = 1, self%order_m
-                base = z_at(self, i)
-                coefficient = self%b(g, i)
-                self%q_gauss(:, g) = self%q_gauss(:, g) + coefficient * x(base + 1:base + n)
-            end do
-            self%p_gauss(:, g) = self%pa
-            do j = 0, self%order_n
-                base = w_at(self, j)
-                coefficient = self%c(g, j)
-                self%p_gauss(:, g) = self%p_gauss(:, g) + coefficient * x(base + 1:base + n)
-            end do
+            call gauss_state_wp(self%tab, self%step, g, self%order_m, self%order_n, self%n, x, &
+                                self%q_gauss(:, g), self%p_gauss(:, g))
             call gauss_gradients(self, g, status)
             if (.not. status%ok()) return
         end do
         call node_jacobians(self, x, status)
         if (.not. status%ok()) return
-        ! D_i = sum_a(i) p_a + sum_l SAC(i,l) w_l - h sum_g w_g B_gi Hq_g - wl_i Phi_i^T mu_i.
-        do i = 0, self%order_m
-            self%d_values(:, i) = self%sum_a(i) * self%pa
-            do l = 0, self%order_n
-                base = w_at(self, l)
-                coefficient = self%tab%sac(i, l)
-                self%d_values(:, i) = self%d_values(:, i) + coefficient * x(base + 1:base + n)
-            end do
-            do g = 1, self%gauss_points
-                coefficient = self%h * self%wb(g, i)
-                self%d_values(:, i) = self%d_values(:, i) - coefficient * self%hq_gauss(:, g)
-            end do
-            mu0 = mu_at(self, i)
-            do l = 1, m
-                coefficient = self%lobatto_weights(i) * x(mu0 + l)
-                self%d_values(:, i) = self%d_values(:, i) - coefficient * self%phi_jac(l, :, i)
-            end do
-        end do
+        call d_sums_wp(self%tab, self%step, self%order_m, self%order_n, self%n, self%m, x, &
+                       self%hq_gauss, self%phi_jac, self%d_values)
         self%cached_x = x
         self%cache_valid = .true.
         self%cache_lowered = .false.
@@ -451,7 +405,7 @@ contains
         status%code = HOLOSYM_SUCCESS
         do i = 1, self%order_m
             base = z_at(self, i)
-            self%q_nodes(:, i) = self%qa + x(base + 1:base + self%n)
+            self%q_nodes(:, i) = self%step%qa + x(base + 1:base + self%n)
         end do
         do i = 0, self%order_m
             if (i >= 1 .and. self%m > 0) call self%sys%constraint_jacobian(self%q_nodes(:, i), &
@@ -471,25 +425,15 @@ contains
         class(discrete_scheme), intent(inout) :: self
         real(wp), intent(in) :: x(:)
         type(holosym_status_t), intent(out) :: status
-        integer :: n, m, g, i, j, l, base, mu0
+        integer :: g
 
         status%code = HOLOSYM_SUCCESS
         self%cache_valid = .false.
-        n = self%n
-        m = self%m
         associate (low => self%low)
             low%x = real(x, dp)
             do g = 1, self%gauss_points
-                low%q = low%qa
-                do i = 1, self%order_m
-                    base = z_at(self, i)
-                    low%q = low%q + low%b(g, i) * low%x(base + 1:base + n)
-                end do
-                low%p = low%pa
-                do j = 0, self%order_n
-                    base = w_at(self, j)
-                    low%p = low%p + low%c(g, j) * low%x(base + 1:base + n)
-                end do
+                call gauss_state_dp(low%tab, low%step, g, self%order_m, self%order_n, self%n, &
+                                    low%x, low%q, low%p)
                 self%q_gauss(:, g) = real(low%q, wp)
                 self%p_gauss(:, g) = real(low%p, wp)
                 call gauss_gradients(self, g, status)
@@ -499,21 +443,9 @@ contains
             end do
             call node_jacobians(self, x, status)
             if (.not. status%ok()) return
-            do i = 0, self%order_m
-                low%d(:, i) = low%sum_a(i) * low%pa
-                do l = 0, self%order_n
-                    base = w_at(self, l)
-                    low%d(:, i) = low%d(:, i) + low%tab%sac(i, l) * low%x(base + 1:base + n)
-                end do
-                do g = 1, self%gauss_points
-                    low%d(:, i) = low%d(:, i) - (low%h * low%wb(g, i)) * low%hq(:, g)
-                end do
-                mu0 = mu_at(self, i)
-                do l = 1, m
-                    low%d(:, i) = low%d(:, i) - (low%tab%lobatto_weights(i) * low%x(mu0 + l)) &
-                        * real(self%phi_jac(l, :, i), dp)
-                end do
-            end do
+            low%phi_jac = real(self%phi_jac, dp)
+            call d_sums_dp(low%tab, low%step, self%order_m, self%order_n, self%n, self%m, &
+                           low%x, low%hq, low%phi_jac, low%d)
             self%d_values = real(low%d, wp)
         end associate
         self%cached_x = x
@@ -527,33 +459,12 @@ contains
         real(wp), intent(in) :: x(:)   !! unknowns
         real(wp), intent(out) :: f(:)  !! residual
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: n, g, i, j, k, row, base
-        real(wp) :: coefficient
 
         self%counters%residuals = self%counters%residuals + 1
         call evaluate(self, x, status)
         if (.not. status%ok()) return
-        n = self%n
-        ! R_p,j = sum_k SCA(j,k) z_k - h sum_g w_g C_gj Hp_g.
-        do j = 0, self%order_n
-            row = j * n
-            f(row + 1:row + n) = 0
-            do k = 1, self%order_m
-                base = z_at(self, k)
-                coefficient = self%tab%sca(j, k)
-                f(row + 1:row + n) = f(row + 1:row + n) + coefficient * x(base + 1:base + n)
-            end do
-            do g = 1, self%gauss_points
-                coefficient = self%h * self%wc(g, j)
-                f(row + 1:row + n) = f(row + 1:row + n) - coefficient * self%hp_gauss(:, g)
-            end do
-        end do
-        do i = 1, self%order_m - 1
-            row = d_row_at(self, i)
-            f(row + 1:row + n) = self%d_values(:, i)
-        end do
-        row = d_row_at(self, 0)
-        f(row + 1:row + n) = self%pa + self%d_values(:, 0)
+        call momentum_rows_wp(self%tab, self%step, self%order_m, self%order_n, self%n, x, &
+                              self%hp_gauss, self%d_values, f)
         call constraint_rows(self, f, status)
     end subroutine scheme_residual
 
@@ -565,33 +476,15 @@ contains
         real(wp), intent(in) :: x(:)   !! unknowns
         real(wp), intent(out) :: f(:)  !! residual (real64 accuracy)
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: n, g, i, j, k, row, base, last_row
+        integer :: last_row
 
         self%counters%lowered_residuals = self%counters%lowered_residuals + 1
         call evaluate_lowered(self, x, status)
         if (.not. status%ok()) return
-        n = self%n
         associate (low => self%low)
-            do j = 0, self%order_n
-                row = j * n
-                low%f(row + 1:row + n) = 0
-                do k = 1, self%order_m
-                    base = z_at(self, k)
-                    low%f(row + 1:row + n) = low%f(row + 1:row + n) &
-                        + low%tab%sca(j, k) * low%x(base + 1:base + n)
-                end do
-                do g = 1, self%gauss_points
-                    low%f(row + 1:row + n) = low%f(row + 1:row + n) &
-                        - (low%h * low%wc(g, j)) * low%hp(:, g)
-                end do
-            end do
-            do i = 1, self%order_m - 1
-                row = d_row_at(self, i)
-                low%f(row + 1:row + n) = low%d(:, i)
-            end do
-            row = d_row_at(self, 0)
-            low%f(row + 1:row + n) = low%pa + low%d(:, 0)
-            last_row = (self%order_m + self%order_n + 1) * n
+            call momentum_rows_dp(low%tab, low%step, self%order_m, self%order_n, self%n, &
+                                  low%x, low%hp, low%d, low%f)
+            last_row = (self%order_m + self%order_n + 1) * self%n
             f(1:last_row) = real(low%f(1:last_row), wp)
         end associate
         call constraint_rows(self, f, status)
@@ -728,7 +621,7 @@ contains
         call jacobian_inputs(self, x, status)
         if (.not. status%ok()) return
         call assemble_blocks_wp(self%tab, self%hess, self%patterns, self%order_m, &
-                                self%order_n, self%n, self%m, self%h, &
+                                self%order_n, self%n, self%m, self%step%h, &
                                 x(mu_at(self, 0) + 1:), self%phi_jac, jac)
     end subroutine assemble_jacobian
 
@@ -752,7 +645,7 @@ contains
                 low%hess%end_hpp = real(self%hess%end_hpp, dp)
             end if
             call assemble_blocks_dp(low%tab, low%hess, self%patterns, self%order_m, &
-                                    self%order_n, self%n, self%m, low%h, &
+                                    self%order_n, self%n, self%m, low%step%h, &
                                     real(x(mu_at(self, 0) + 1:), dp), low%phi_jac, jac)
         end associate
     end subroutine assemble_jacobian_lowered
@@ -821,50 +714,66 @@ contains
         end associate
     end subroutine jacobian_inputs
 
-    !> The quadrature sums of the Jacobian assembly (sca and sac enter the residual too).
+    !> The tables of the residual and the Jacobian assembly (sca and sac enter both).
     !! Keep the computed sums even where they equal rho_i(1) - rho_i(0) in exact
     !! arithmetic: with the exact +-1, 0 the equations are no longer exactly the gradient
     !! of one discrete action, and round-off then drifts linearly instead of randomly.
-    subroutine assembly_sums(self, tab)
+    subroutine scheme_sums(self, tab)
         class(discrete_scheme), intent(in) :: self
-        type(assembly_tables_wp), intent(out) :: tab
-        integer :: i, j, k, mm, nn, gg
+        type(scheme_tables_wp), intent(out) :: tab
+        integer :: g, i, j, k, mm, nn, gg
         mm = self%order_m
         nn = self%order_n
         gg = self%gauss_points
-        allocate (tab%sca(0:nn, mm), tab%scb(0:nn, mm), tab%scc(0:nn, 0:nn), &
+        allocate (tab%b(gg, 0:mm), tab%c(gg, 0:nn), tab%wb(gg, 0:mm), tab%wc(gg, 0:nn), &
+                  tab%sum_a(0:mm), tab%sca(0:nn, mm), tab%scb(0:nn, mm), tab%scc(0:nn, 0:nn), &
                   tab%sac(0:mm, 0:nn), tab%sbb(0:mm, mm), tab%sbc(0:mm, 0:nn), &
                   tab%wcb(gg, 0:nn, mm), tab%wcc(gg, 0:nn, 0:nn), tab%wbb(gg, 0:mm, mm), &
                   tab%wbc(gg, 0:mm, 0:nn), tab%lobatto_weights(0:mm))
+        tab%b = self%b
+        tab%c = self%c
+        do g = 1, gg
+            tab%wb(g, :) = self%gauss_weights(g) * self%b(g, :)
+            tab%wc(g, :) = self%gauss_weights(g) * self%c(g, :)
+        end do
+        do i = 0, mm
+            tab%sum_a(i) = sum(self%gauss_weights * self%a(:, i))
+        end do
         tab%lobatto_weights = self%lobatto_weights
-        do k = 1, mm
+        associate (wb => tab%wb, wc => tab%wc)
+            do k = 1, mm
+                do j = 0, nn
+                    tab%sca(j, k) = sum(wc(:, j) * self%a(:, k))
+                    tab%scb(j, k) = sum(wc(:, j) * self%b(:, k))
+                    tab%wcb(:, j, k) = wc(:, j) * self%b(:, k)
+                end do
+                do i = 0, mm
+                    tab%sbb(i, k) = sum(wb(:, i) * self%b(:, k))
+                    tab%wbb(:, i, k) = wb(:, i) * self%b(:, k)
+                end do
+            end do
             do j = 0, nn
-                tab%sca(j, k) = sum(self%wc(:, j) * self%a(:, k))
-                tab%scb(j, k) = sum(self%wc(:, j) * self%b(:, k))
-                tab%wcb(:, j, k) = self%wc(:, j) * self%b(:, k)
+                do k = 0, nn
+                    tab%scc(k, j) = sum(wc(:, k) * self%c(:, j))
+                    tab%wcc(:, k, j) = wc(:, k) * self%c(:, j)
+                end do
+                do i = 0, mm
+                    tab%sac(i, j) = sum(self%gauss_weights * self%a(:, i) * self%c(:, j))
+                    tab%sbc(i, j) = sum(wb(:, i) * self%c(:, j))
+                    tab%wbc(:, i, j) = wb(:, i) * self%c(:, j)
+                end do
             end do
-            do i = 0, mm
-                tab%sbb(i, k) = sum(self%wb(:, i) * self%b(:, k))
-                tab%wbb(:, i, k) = self%wb(:, i) * self%b(:, k)
-            end do
-        end do
-        do j = 0, nn
-            do k = 0, nn
-                tab%scc(k, j) = sum(self%wc(:, k) * self%c(:, j))
-                tab%wcc(:, k, j) = self%wc(:, k) * self%c(:, j)
-            end do
-            do i = 0, mm
-                tab%sac(i, j) = sum(self%gauss_weights * self%a(:, i) * self%c(:, j))
-                tab%sbc(i, j) = sum(self%wb(:, i) * self%c(:, j))
-                tab%wbc(:, i, j) = self%wb(:, i) * self%c(:, j)
-            end do
-        end do
-    end subroutine assembly_sums
+        end associate
+    end subroutine scheme_sums
 
-    !> real64 copies of the assembly sums (with their index bounds).
-    subroutine lowered_assembly_sums(tab, low)
-        type(assembly_tables_wp), intent(in) :: tab
-        type(assembly_tables_dp), intent(out) :: low
+    !> real64 copies of the tables (with their index bounds).
+    subroutine lowered_sums(tab, low)
+        type(scheme_tables_wp), intent(in) :: tab
+        type(scheme_tables_dp), intent(out) :: low
+        call lower_2d(tab%b, low%b)
+        call lower_2d(tab%c, low%c)
+        call lower_2d(tab%wb, low%wb)
+        call lower_2d(tab%wc, low%wc)
         call lower_2d(tab%sca, low%sca)
         call lower_2d(tab%scb, low%scb)
         call lower_2d(tab%scc, low%scc)
@@ -875,10 +784,16 @@ contains
         call lower_3d(tab%wcc, low%wcc)
         call lower_3d(tab%wbb, low%wbb)
         call lower_3d(tab%wbc, low%wbc)
-        allocate (low%lobatto_weights(0:ubound(tab%lobatto_weights, 1)))
-        low%lobatto_weights = real(tab%lobatto_weights, dp)
+        call lower_1d(tab%lobatto_weights, low%lobatto_weights)
+        call lower_1d(tab%sum_a, low%sum_a)
     contains
         ! Allocate first: assignment of an expression would make every lower bound 1.
+        subroutine lower_1d(source, copy)
+            real(wp), allocatable, intent(in) :: source(:)
+            real(dp), allocatable, intent(out) :: copy(:)
+            allocate (copy(lbound(source, 1):ubound(source, 1)))
+            copy = real(source, dp)
+        end subroutine lower_1d
         subroutine lower_2d(source, copy)
             real(wp), allocatable, intent(in) :: source(:, :)
             real(dp), allocatable, intent(out) :: copy(:, :)
@@ -894,7 +809,7 @@ contains
                            lbound(source, 3):ubound(source, 3)))
             copy = real(source, dp)
         end subroutine lower_3d
-    end subroutine lowered_assembly_sums
+    end subroutine lowered_sums
 
     !> real64 workspace of the lowered assembly.
     subroutine allocate_hessians_dp(hess, n, m, order_m, gauss_points, nx)
@@ -1003,7 +918,7 @@ contains
         dq = x(z_at(self, self%order_m) + 1:z_at(self, self%order_m) + self%n)
         dp = 0
         do g = 1, self%gauss_points
-            coefficient = self%h * self%gauss_weights(g)
+            coefficient = self%step%h * self%gauss_weights(g)
             dp = dp - coefficient * self%hq_gauss(:, g)
         end do
         do i = 0, self%order_m
@@ -1025,7 +940,7 @@ contains
         if (.not. self%linear_increments) return
         if (.not. (self%cache_valid .and. self%step_hessians)) return
         if (self%cache_lowered .or. self%jacobian_mode /= JACOBIAN_ASSEMBLED) return
-        size_of_state = max(1.0_wp, maxval(abs(self%qa)), maxval(abs(self%pa)), maxval(abs(x)))
+        size_of_state = max(1.0_wp, maxval(abs(self%step%qa)), maxval(abs(self%step%pa)), maxval(abs(x)))
         delta = maxval(abs(x - self%cached_x))
         ! The second derivatives may come from a lowered evaluation (real64 round-off).
         distance = maxval(abs(x - self%hessian_x)) + real(epsilon(1.0_dp), wp) * size_of_state
@@ -1049,14 +964,14 @@ contains
             dq_g = 0
             do i = 1, self%order_m
                 base = z_at(self, i)
-                dq_g = dq_g + self%low%b(g, i) * delta(base + 1:base + n)
+                dq_g = dq_g + self%low%tab%b(g, i) * delta(base + 1:base + n)
             end do
             dp_g = 0
             do j = 0, self%order_n
                 base = w_at(self, j)
-                dp_g = dp_g + self%low%c(g, j) * delta(base + 1:base + n)
+                dp_g = dp_g + self%low%tab%c(g, j) * delta(base + 1:base + n)
             end do
-            weight = real(self%h * self%gauss_weights(g), dp)
+            weight = real(self%step%h * self%gauss_weights(g), dp)
             do b = 1, n
                 do a = 1, n
                     change(a) = change(a) + weight * (real(self%hess%hqq(a, b, g), dp) * dq_g(b) &
@@ -1116,8 +1031,8 @@ contains
         integer :: i
         max_phi = 0
         do i = 0, self%order_m
-            lambda(:, i) = x(mu_at(self, i) + 1:mu_at(self, i) + self%m) / self%h
-            self%q_work = self%qa
+            lambda(:, i) = x(mu_at(self, i) + 1:mu_at(self, i) + self%m) / self%step%h
+            self%q_work = self%step%qa
             if (i >= 1) self%q_work = self%q_work + x(z_at(self, i) + 1:z_at(self, i) + self%n)
             if (self%m == 0) cycle
             call self%sys%constraint(self%q_work, self%phi_work)
