@@ -457,7 +457,6 @@ contains
         type(test_error_t), allocatable, intent(out) :: error
         type(spherical_pendulum) :: sys
         type(constrained_integrator) :: warm, cold
-        type(step_info_t) :: warm_info, cold_info
         real(wp) :: q1(3), p1(3), q2(3), p2(3)
         type(holosym_status_t) :: status
         integer :: k
@@ -475,10 +474,12 @@ contains
         call check(error, maxval(abs(q1 - q2)) + maxval(abs(p1 - p2)) <= constraint_bound, &
             "warm and cold starts differ by " // real_str(maxval(abs(q1 - q2)) + &
             maxval(abs(p1 - p2))))
-        warm_info = warm%last_step()
-        cold_info = cold%last_step()
-        call check(error, warm_info%newton_iterations < cold_info%newton_iterations, &
-            "extrapolation did not save Newton iterations")
+        ! Over all steps: a single step may retry kept factors (simplified Newton) and
+        ! then take as many iterations as a cold start.
+        call check(error, warm%stats%newton_iterations < cold%stats%newton_iterations, &
+            "extrapolation did not save Newton iterations: " // &
+            int_str(int(warm%stats%newton_iterations)) // " warm, " // &
+            int_str(int(cold%stats%newton_iterations)) // " cold")
     end subroutine extrapolated_guess_same_result
 
 end module test_integrator
