@@ -18,8 +18,9 @@
 !!   of the real128 residual. A Jacobian that is singular to real64 precision but not to
 !!   working precision falls back to the working-precision LU.
 !! - `settings%presolve` (with the mixed solver): first iterate the system's
-!!   `residual_lowered` (real64 arithmetic, much cheaper than real128) to real64 accuracy,
-!!   then continue with the working-precision residual.
+!!   `residual_lowered` (real64 arithmetic, much cheaper than real128) until the
+!!   corrections reach about 1.6e-10 (`lowered_tolerance`), then continue with the
+!!   working-precision residual.
 module holosym_newton
     use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
@@ -98,7 +99,7 @@ module holosym_newton
         !! evaluations; refactoring is chosen when it is predicted to save more than this.
         real(wp) :: jacobian_cost = 2
         !> With the mixed linear solver: iterate `residual_lowered` (real64 arithmetic) to
-        !! real64 accuracy before the working-precision residual.
+        !! corrections of about 1.6e-10 before the working-precision residual.
         logical :: presolve = .false.
     end type newton_settings_t
 
@@ -371,7 +372,7 @@ contains
                     "iteration " // int_str(iter))
                 return
             end if
-            ! The pre-solve stops at real64 accuracy; the working-precision phase follows.
+            ! The pre-solve stops at `lowered_tolerance`; the working-precision phase follows.
             target = settings%tolerance
             if (lowered) target = lowered_tolerance
             ! With contraction rate theta the remaining error is about theta/(1-theta) * dx
