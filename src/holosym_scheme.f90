@@ -194,7 +194,7 @@ contains
         integer, intent(in) :: m            !! constraints, 0 <= m < n
         type(holosym_status_t), intent(out), optional :: status !! outcome
         real(wp), allocatable :: unused(:, :), mom_weights(:)
-        integer :: g, i, k
+        integer :: k
 
         if (order_m < 1 .or. order_n < 0 .or. gauss_points < 1) then
             call set_status(status, HOLOSYM_INVALID_ORDER, "need M >= 1, N >= 0, G >= 1; got M = " &
