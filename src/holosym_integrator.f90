@@ -149,7 +149,8 @@ module holosym_integrator
         real(wp), allocatable, private :: last_qb(:), last_pb(:)
         real(wp), private :: last_h = 0
         type(step_info_t), private :: last_info
-        ! Preallocated workspace: no allocation inside a step.
+        ! Preallocated workspace: a step allocates no matrix or vector of the Newton
+        ! system (only a few small automatic arrays, < 0.1 % of its instructions).
         type(newton_workspace_t), private :: workspace
         real(wp), private :: workspace_h = 0
         integer, private :: applied_modes(3) = 0

@@ -10,7 +10,9 @@
 !! arrays (never real128 data). Measured for n = 15..93: with the reference LAPACK/BLAS the
 !! unblocked dgetf2 beats dgetrf by 1.3-2.5x, with OpenBLAS (installed by
 !! tools/install-deps.sh) dgetrf wins from n ~ 30 on (4x at n = 93); hence dgetf2 below
-!! `blocked_lu_size`. One right-hand side is solved by dlaswp + level-2 dtrsv.
+!! `blocked_lu_size`. One right-hand side is solved by plain substitution loops below
+!! `blas_solve_size` (measured 1.2-1.7x faster than dlaswp + OpenBLAS dtrsv for
+!! n = 15..60, whose per-call overhead dominates there) and by dlaswp + dtrsv above.
 !! Newton uses them for mixed precision (a real64 factorisation, real128 residuals) and,
 !! in the real64 build, for everything.
 module holosym_linalg
@@ -23,6 +25,8 @@ module holosym_linalg
 
     !> From this order on `lu_factor_dp` uses the blocked dgetrf instead of dgetf2.
     integer, parameter :: blocked_lu_size = 32
+    !> From this order on one right-hand side is solved with BLAS dtrsv.
+    integer, parameter :: blas_solve_size = 64
 
     interface
         !> LAPACK: unblocked LU factorisation of a real64 general matrix.
@@ -247,7 +251,9 @@ contains
         integer :: info, n
         n = size(lu, 1)
         if (n == 0) return
-        if (size(b, 2) == 1) then
+        if (size(b, 2) == 1 .and. n < blas_solve_size) then
+            call substitute(lu, pivots, b(:, 1))
+        else if (size(b, 2) == 1) then
             ! One right-hand side (Newton): the interchanges, then L and U by level-2 BLAS.
             call dlaswp(1, b, size(b, 1), 1, n, pivots, 1)
             call dtrsv("L", "N", "U", n, lu, n, b(:, 1), 1)
@@ -256,5 +262,30 @@ contains
             call dgetrs("N", n, size(b, 2), lu, n, pivots, b, size(b, 1), info)
         end if
     end subroutine lu_solve_dp
+
+    !> One right-hand side with LAPACK factors: the interchanges in order, then forward
+    !! (unit L) and back (U) substitution, column oriented.
+    pure subroutine substitute(lu, pivots, x)
+        real(dp), intent(in) :: lu(:, :)    !! factors from dgetf2/dgetrf (n x n)
+        integer, intent(in) :: pivots(:)    !! LAPACK ipiv
+        real(dp), intent(inout) :: x(:)     !! right-hand side in, solution out
+        integer :: n, k
+        real(dp) :: swap
+        n = size(lu, 1)
+        do k = 1, n
+            if (pivots(k) /= k) then
+                swap = x(k)
+                x(k) = x(pivots(k))
+                x(pivots(k)) = swap
+            end if
+        end do
+        do k = 1, n - 1
+            x(k + 1:n) = x(k + 1:n) - lu(k + 1:n, k) * x(k)
+        end do
+        do k = n, 1, -1
+            x(k) = x(k) / lu(k, k)
+            x(1:k - 1) = x(1:k - 1) - lu(1:k - 1, k) * x(k)
+        end do
+    end subroutine substitute
 
 end module holosym_linalg
