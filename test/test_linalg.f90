@@ -1,9 +1,10 @@
 !> Tests of the linalg part of holosym: LU factorisation with partial pivoting and solve.
 module test_linalg
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_positive_inf
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     use holosym_status, only: int_str, real_str
-    use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance
+    use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
+        lu_solve_dp
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close
     implicit none
     private
@@ -14,6 +15,9 @@ module test_linalg
     integer, parameter :: max_order = 40
     !> Bound on the normwise relative residual ||Ax - b|| / (||A|| ||x||) (about 1e-30).
     real(wp), parameter :: residual_tolerance = 4096 * eps
+    !> Largest order of the real64 random systems: beyond both of `lu_factor_dp`'s
+    !! switches (dgetf2 -> dgetrf at 32, substitution loops -> dtrsv at 64).
+    integer, parameter :: max_order_dp = 80
 
 contains
 
@@ -38,7 +42,9 @@ contains
             new_test("non_square_negative_info", non_square), &
             new_test("short_pivots_negative_info", short_pivots), &
             new_test("empty_matrix", empty_matrix), &
-            new_test("default_pivot_tolerance_value", default_tolerance) &
+            new_test("default_pivot_tolerance_value", default_tolerance), &
+            new_test("real64_random_systems_sizes_1_to_80", random_systems_dp), &
+            new_test("real64_singular_and_argument_errors", singular_dp) &
             ]
     end function linalg_tests
 
@@ -109,6 +115,69 @@ contains
             deallocate (pivots)
         end do
     end subroutine random_systems
+
+    !> The real64 LAPACK path on random systems of orders 1..80, one right-hand side and
+    !! three: relative residuals at real64 round-off, the same solution either way.
+    subroutine random_systems_dp(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        integer, parameter :: nrhs = 3
+        integer :: n, info
+        real(wp), allocatable :: a(:, :), x(:, :)
+        real(dp), allocatable :: lu(:, :), b(:, :), rhs(:, :), single(:, :)
+        integer, allocatable :: pivots(:)
+        real(dp) :: ratio
+        real(wp) :: residual
+        real(wp), parameter :: tolerance_dp = 4096 * real(epsilon(1.0_dp), wp)
+        call fixed_seed(21)
+        do n = 1, max_order_dp
+            a = real(real(random_matrix(n, n), dp), wp)   ! exactly representable in real64
+            x = random_matrix(n, nrhs)
+            b = real(matmul(a, x), dp)
+            rhs = b
+            lu = real(a, dp)
+            allocate (pivots(n))
+            call lu_factor_dp(lu, pivots, info, pivot_ratio=ratio)
+            call check(error, info == 0 .and. ratio > 0 .and. ratio <= 1, "n = " // &
+                int_str(n) // ": info = " // int_str(info) // ", pivot ratio " // &
+                real_str(real(ratio, wp)))
+            if (allocated(error)) return
+            single = b(:, 1:1)
+            call lu_solve_dp(lu, pivots, single)
+            call lu_solve_dp(lu, pivots, b)
+            residual = relative_residual(a, real(single(:, 1), wp), real(rhs(:, 1), wp))
+            call check(error, residual <= tolerance_dp, "n = " // int_str(n) // &
+                ": relative residual " // real_str(residual))
+            call check(error, maxval(abs(single(:, 1) - b(:, 1))) <= &
+                tolerance_dp * maxval(abs(b(:, 1))) * n, "n = " // int_str(n) // &
+                ": one right-hand side and three differ")
+            if (allocated(error)) return
+            deallocate (pivots)
+        end do
+    end subroutine random_systems_dp
+
+    !> The real64 factorisation reports singular matrices (info > 0), NaN entries, and
+    !! bad shapes (-1, -2), as `lu_factor` does.
+    subroutine singular_dp(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        integer, parameter :: n = 40
+        real(dp) :: a(n, n), not_square(n, n - 1)
+        integer :: pivots(n), info
+        call fixed_seed(22)
+        a = real(random_matrix(n, n), dp)
+        a(n, :) = a(1, :)
+        call lu_factor_dp(a, pivots, info)
+        call check(error, info > 0, "repeated row: info = " // int_str(info))
+        a = real(random_matrix(n, n), dp)
+        a(7, 3) = ieee_value(a(7, 3), ieee_quiet_nan)
+        call lu_factor_dp(a, pivots, info)
+        call check(error, info > 0, "NaN entry: info = " // int_str(info))
+        not_square = 1
+        call lu_factor_dp(not_square, pivots, info)
+        call check(error, info == -1, "not square: info = " // int_str(info))
+        a = real(random_matrix(n, n), dp)
+        call lu_factor_dp(a, pivots(1:n - 1), info)
+        call check(error, info == -2, "short pivots: info = " // int_str(info))
+    end subroutine singular_dp
 
     !> Several right-hand sides at once give, column by column, bit for bit the same
     !! solutions as single solves, each with a round-off residual.
