@@ -38,7 +38,7 @@ module holosym_integrator
         HOLOSYM_NEWTON_NOT_CONVERGED
     use holosym_problem, only: constrained_hamiltonian
     use holosym_newton, only: newton_settings_t, newton_report_t, newton_solve, &
-        newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
+        newton_workspace_t, all_finite, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
     use holosym_scheme, only: discrete_scheme, JACOBIAN_ASSEMBLED, &
         JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, &
@@ -149,8 +149,8 @@ module holosym_integrator
         real(wp), allocatable, private :: last_qb(:), last_pb(:)
         real(wp), private :: last_h = 0
         type(step_info_t), private :: last_info
-        ! Preallocated workspace: a step allocates no matrix or vector of the Newton
-        ! system (only a few small automatic arrays, < 0.1 % of its instructions).
+        ! Preallocated workspace: inside `integrate` a step allocates only its status
+        ! message and the four small arrays of the end-state check (manifold_residuals).
         type(newton_workspace_t), private :: workspace
         real(wp), private :: workspace_h = 0
         integer, private :: applied_modes(3) = 0
@@ -452,7 +452,7 @@ contains
             if (.not. status%ok()) return
             call self%scheme%increments(self%x_work, self%dq_work, self%dp_work, status)
             if (.not. status%ok()) return
-            if (.not. (all(is_finite(self%dq_work)) .and. all(is_finite(self%dp_work)))) then
+            if (.not. (all_finite(self%dq_work) .and. all_finite(self%dp_work))) then
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, "step produced a non-finite " &
                     // "state")
                 return

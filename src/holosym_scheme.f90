@@ -26,12 +26,14 @@ module holosym_scheme
         step_constants_wp => step_constants, assembly_hessians_wp => assembly_hessians, &
         assemble_blocks_wp => assemble_blocks, set_step_constants_wp => set_step_constants, &
         allocate_step_constants_wp => allocate_step_constants, gauss_state_wp => gauss_state, &
+        allocate_hessians_wp => allocate_hessians, &
         d_sums_wp => d_sums, momentum_rows_wp => momentum_rows, &
         entry_zero, entry_constant, entry_varying
     use holosym_scheme_kernels_dp, only: scheme_tables_dp => scheme_tables, &
         step_constants_dp => step_constants, assembly_hessians_dp => assembly_hessians, &
         assemble_blocks_dp => assemble_blocks, set_step_constants_dp => set_step_constants, &
         allocate_step_constants_dp => allocate_step_constants, gauss_state_dp => gauss_state, &
+        allocate_hessians_dp => allocate_hessians, &
         d_sums_dp => d_sums, momentum_rows_dp => momentum_rows
     implicit none
     private
@@ -268,10 +270,8 @@ contains
         allocate (self%p_gauss(n, gauss_points), self%hq_gauss(n, gauss_points))
         allocate (self%hp_gauss(n, gauss_points), self%phi_jac(m, n, 0:order_m))
         allocate (self%velocity(n), self%q_work(n), self%phi_work(m))
-        allocate (self%hess%hqq(n, n, gauss_points), self%hess%hqp(n, n, gauss_points), &
-                  self%hess%hpp(n, n, gauss_points), self%hess%phi_hess(n, n, m, order_m), &
-                  self%hess%velocity(n), self%hess%end_hqp(n, n), self%hess%end_hpp(n, n), &
-                  self%hess%d_block(n, self%nx), self%end_hqq(n, n), self%patterns(n, n, 3))
+        call allocate_hessians_wp(self%hess, n, m, order_m, gauss_points, self%nx)
+        allocate (self%end_hqq(n, n), self%patterns(n, n, 3))
         allocate (self%x_work(self%nx), self%f_plus(self%nx), self%f_minus(self%nx))
         self%cache_valid = .false.
         call set_status(status, HOLOSYM_SUCCESS, "")
@@ -306,7 +306,10 @@ contains
         real(wp), intent(in) :: h     !! step size
         self%sys => sys
         call set_step_constants_wp(self%tab, self%step, qa, pa, h)
-        call set_step_constants_dp(self%low%tab, self%low%step, real(qa, dp), real(pa, dp), &
+        ! real64 copies in the lowered workspace (free between solves): no temporaries.
+        self%low%q = real(qa, dp)
+        self%low%p = real(pa, dp)
+        call set_step_constants_dp(self%low%tab, self%low%step, self%low%q, self%low%p, &
                                    real(h, dp))
         self%cache_valid = .false.
         self%step_hessians = .false.
@@ -611,7 +614,6 @@ contains
         end do
     end subroutine classify
 
-
     !> The assembled Jacobian.
     subroutine assemble_jacobian(self, x, jac, status)
         class(discrete_scheme), intent(inout) :: self
@@ -644,9 +646,11 @@ contains
                 low%hess%end_hqp = real(self%hess%end_hqp, dp)
                 low%hess%end_hpp = real(self%hess%end_hpp, dp)
             end if
+            ! The scaled multipliers in real64, in the lowered residual's scratch vector.
+            low%f(1:self%nx - mu_at(self, 0)) = real(x(mu_at(self, 0) + 1:), dp)
             call assemble_blocks_dp(low%tab, low%hess, self%patterns, self%order_m, &
-                                    self%order_n, self%n, self%m, low%step%h, &
-                                    real(x(mu_at(self, 0) + 1:), dp), low%phi_jac, jac)
+                                    self%order_n, self%n, self%m, low%step%h, low%f, &
+                                    low%phi_jac, jac)
         end associate
     end subroutine assemble_jacobian_lowered
 
@@ -811,15 +815,6 @@ contains
         end subroutine lower_3d
     end subroutine lowered_sums
 
-    !> real64 workspace of the lowered assembly.
-    subroutine allocate_hessians_dp(hess, n, m, order_m, gauss_points, nx)
-        type(assembly_hessians_dp), intent(out) :: hess
-        integer, intent(in) :: n, m, order_m, gauss_points, nx
-        allocate (hess%hqq(n, n, gauss_points), hess%hqp(n, n, gauss_points), &
-                  hess%hpp(n, n, gauss_points), hess%phi_hess(n, n, m, order_m), &
-                  hess%velocity(n), hess%end_hqp(n, n), hess%end_hpp(n, n), hess%d_block(n, nx))
-    end subroutine allocate_hessians_dp
-
     !> First guess q_i = q_a, p_j = p_a, lambda_k = 0 (all increments zero).
     pure subroutine scheme_constant_guess(self, x)
         class(discrete_scheme), intent(in) :: self
@@ -930,7 +925,10 @@ contains
                 dp = dp - coefficient * self%phi_jac(l, :, i)
             end do
         end do
-        if (linear) dp = dp - real(first_order_change(self, x), wp)
+        if (linear) then
+            call first_order_change(self, x)
+            dp = dp - real(self%low%f(1:self%n), wp)
+        end if
         end subroutine scheme_increments
 
     !> True when the cache holds an exact evaluation within `linear_update_limit` of x and
@@ -953,49 +951,52 @@ contains
     !> First-order change of h sum_g w_g H_q(Q_g, P_g) + sum_i wl_i Phi(q_i)^T mu_i from the
     !! cached x to x through Q, P and q_i (the mu_i enter exactly in `increments`), in
     !! real64: the change is ~1e-30, so real64 and second derivatives taken anywhere in
-    !! this step are accurate enough.
-    function first_order_change(self, x) result(change)
-        class(discrete_scheme), intent(in) :: self
+    !! this step are accurate enough. Result in low%f(1:n).
+    subroutine first_order_change(self, x)
+        class(discrete_scheme), intent(inout) :: self
         real(wp), intent(in) :: x(:)
-        real(dp) :: change(self%n)
-        real(dp) :: delta(size(x)), dq_g(self%n), dp_g(self%n), weight
+        real(dp) :: weight
         integer :: g, i, j, l, a, b, base, n
         n = self%n
-        delta = real(x - self%cached_x, dp)
-        change = 0
-        do g = 1, self%gauss_points
-            dq_g = 0
-            do i = 1, self%order_m
-                base = z_at(self, i)
-                dq_g = dq_g + self%low%tab%b(g, i) * delta(base + 1:base + n)
-            end do
-            dp_g = 0
-            do j = 0, self%order_n
-                base = w_at(self, j)
-                dp_g = dp_g + self%low%tab%c(g, j) * delta(base + 1:base + n)
-            end do
-            weight = real(self%step%h * self%gauss_weights(g), dp)
-            do b = 1, n
-                do a = 1, n
-                    change(a) = change(a) + weight * (real(self%hess%hqq(a, b, g), dp) * dq_g(b) &
-                        + real(self%hess%hqp(a, b, g), dp) * dp_g(b))
+        ! Workspace of the lowered residual (free after the solve): no allocation.
+        associate (delta => self%low%x, dq_g => self%low%q, dp_g => self%low%p, &
+                   change => self%low%f(1:n))
+            delta = real(x - self%cached_x, dp)
+            change = 0
+            do g = 1, self%gauss_points
+                dq_g = 0
+                do i = 1, self%order_m
+                    base = z_at(self, i)
+                    dq_g = dq_g + self%low%tab%b(g, i) * delta(base + 1:base + n)
                 end do
-            end do
-        end do
-        ! d/dq_i (Phi(q_i)^T mu_i) = sum_l mu_il phi_l''(q_i); q_0 = q_a does not move.
-        do i = 1, self%order_m
-            base = z_at(self, i)
-            do l = 1, self%m
-                weight = self%low%tab%lobatto_weights(i) * real(x(mu_at(self, i) + l), dp)
+                dp_g = 0
+                do j = 0, self%order_n
+                    base = w_at(self, j)
+                    dp_g = dp_g + self%low%tab%c(g, j) * delta(base + 1:base + n)
+                end do
+                weight = real(self%step%h * self%gauss_weights(g), dp)
                 do b = 1, n
                     do a = 1, n
-                        change(a) = change(a) + weight * real(self%hess%phi_hess(a, b, l, i), dp) &
-                            * delta(base + b)
+                        change(a) = change(a) + weight * (real(self%hess%hqq(a, b, g), dp) &
+                            * dq_g(b) + real(self%hess%hqp(a, b, g), dp) * dp_g(b))
                     end do
                 end do
             end do
-        end do
-    end function first_order_change
+            ! d/dq_i (Phi(q_i)^T mu_i) = sum_l mu_il phi_l''(q_i); q_0 = q_a does not move.
+            do i = 1, self%order_m
+                base = z_at(self, i)
+                do l = 1, self%m
+                    weight = self%low%tab%lobatto_weights(i) * real(x(mu_at(self, i) + l), dp)
+                    do b = 1, n
+                        do a = 1, n
+                            change(a) = change(a) + weight * &
+                                real(self%hess%phi_hess(a, b, l, i), dp) * delta(base + b)
+                        end do
+                    end do
+                end do
+            end do
+        end associate
+    end subroutine first_order_change
 
     !> Dense output of a solved step: q~(tau), p~(tau), lambda~(tau) for any tau
     !! (tau in [0, 1] interpolates; outside it extrapolates).

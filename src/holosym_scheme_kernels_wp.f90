@@ -5,7 +5,8 @@ module holosym_scheme_kernels_wp
     use holosym_kinds, only: rk => wp
     implicit none
     private
-    public :: assemble_blocks, set_step_constants, allocate_step_constants, gauss_state, &
+    public :: assemble_blocks, set_step_constants, allocate_step_constants, allocate_hessians, &
+        gauss_state, &
         d_sums, momentum_rows
 
     include "holosym_scheme_kernels.inc"
