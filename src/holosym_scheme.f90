@@ -71,7 +71,9 @@ module holosym_scheme
         integer(int64) :: hessians = 0
     end type scheme_counters_t
 
-    !> real64 copies of the tables and real64 workspace of `residual_lowered`.
+    !> real64 copies of the tables and real64 workspace of `residual_lowered`; its vectors
+    !! x, q, p, f also serve as scratch (no allocation per step) for `set_step`, the
+    !! first-order increments and the lowered assembly, which never overlap with it.
     type :: lowered_tables_t
         type(scheme_tables_dp) :: tab        ! the tables in real64
         type(step_constants_dp) :: step      ! the step constants in real64
