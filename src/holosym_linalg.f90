@@ -14,7 +14,8 @@
 !! `blas_solve_size` (measured 1.2-1.7x faster than dlaswp + OpenBLAS dtrsv for
 !! n = 15..60, whose per-call overhead dominates there) and by dlaswp + dtrsv above.
 !! Newton uses them for mixed precision (a real64 factorisation, real128 residuals) and,
-!! in the real64 build, for everything.
+!! in the real64 build, for everything. The LAPACK/BLAS calls run one thread at a time
+!! (an OpenMP critical section): a serial OpenBLAS is not safe for concurrent calls.
 module holosym_linalg
     use holosym_kinds, only: wp, dp
     implicit none
@@ -226,11 +227,16 @@ contains
         else
             threshold = default_pivot_tolerance_dp(n) * scale
         end if
+        ! One thread at a time: a serial OpenBLAS (Debian's default) shares internal
+        ! buffers between concurrent calls (seen as run-to-run differences in the OpenMP
+        ! `tables`; none with the reference LAPACK or inside this critical section).
+        !$omp critical (holosym_lapack)
         if (n < blocked_lu_size) then
             call dgetf2(n, n, a, size(a, 1), pivots, lapack_info)
         else
             call dgetrf(n, n, a, size(a, 1), pivots, lapack_info)
         end if
+        !$omp end critical (holosym_lapack)
         smallest = huge(1.0_dp)
         do k = 1, n
             ! Also catches scale == 0, LAPACK's exact zero pivots and NaN entries.
@@ -253,13 +259,18 @@ contains
         if (n == 0) return
         if (size(b, 2) == 1 .and. n < blas_solve_size) then
             call substitute(lu, pivots, b(:, 1))
-        else if (size(b, 2) == 1) then
-            ! One right-hand side (Newton): the interchanges, then L and U by level-2 BLAS.
-            call dlaswp(1, b, size(b, 1), 1, n, pivots, 1)
-            call dtrsv("L", "N", "U", n, lu, n, b(:, 1), 1)
-            call dtrsv("U", "N", "N", n, lu, n, b(:, 1), 1)
         else
-            call dgetrs("N", n, size(b, 2), lu, n, pivots, b, size(b, 1), info)
+            ! One thread at a time (see lu_factor_dp).
+            !$omp critical (holosym_lapack)
+            if (size(b, 2) == 1) then
+                ! One right-hand side (Newton): the interchanges, then L and U by BLAS.
+                call dlaswp(1, b, size(b, 1), 1, n, pivots, 1)
+                call dtrsv("L", "N", "U", n, lu, n, b(:, 1), 1)
+                call dtrsv("U", "N", "N", n, lu, n, b(:, 1), 1)
+            else
+                call dgetrs("N", n, size(b, 2), lu, n, pivots, b, size(b, 1), info)
+            end if
+            !$omp end critical (holosym_lapack)
         end if
     end subroutine lu_solve_dp
 
