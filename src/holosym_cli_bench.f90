@@ -22,7 +22,7 @@ module holosym_cli_bench
     private
 
     public :: bench_options_t, parse_bench_options, bench_command, bench_help, &
-              read_bench_csv, write_summary
+              read_bench_csv, write_bench_csv, write_summary
 
     !> Systems of the benchmark, in the order of the competitor table.
     character(len=*), parameter :: bench_systems(3) = [character(len=8) :: &
@@ -34,6 +34,8 @@ module holosym_cli_bench
     integer, parameter :: per_step_configs(3, 2) = reshape([2, 1, 3, 7, 6, 8], [3, 2])
     !> Largest step of the sweeps.
     real(wp), parameter :: sweep_h0 = 1
+    !> Method of a per-step row: this prefix and the option set 0 .. variant_count.
+    character(len=*), parameter :: variant_prefix = "variant-"
     !> CSV header of bench rows.
     character(len=*), parameter :: csv_header = "system,method,precision,M,N,G,order,h," // &
         "steps,error,energy_error,constraint_residual,seconds,seconds_per_step," // &
@@ -203,11 +205,12 @@ contains
         text = trim(buffer)
     end function int64_str
 
-    !> Write rows as CSV.
-    subroutine write_rows(path, rows, status)
-        character(len=*), intent(in) :: path
-        type(bench_row_t), intent(in) :: rows(:)
-        type(holosym_status_t), intent(inout) :: status
+    !> Write rows as CSV (the header line, then one line per row), the format
+    !! `read_bench_csv` reads. Failure: HOLOSYM_INVALID_ARGUMENT naming the file.
+    subroutine write_bench_csv(path, rows, status)
+        character(len=*), intent(in) :: path        !! file, replaced
+        type(bench_row_t), intent(in) :: rows(:)    !! rows to write
+        type(holosym_status_t), intent(inout) :: status !! I/O failure
         integer :: unit, ios, i
         character(len=256) :: message
         open (newunit=unit, file=path, status="replace", action="write", iostat=ios, &
@@ -216,22 +219,35 @@ contains
             call fail(status, "cannot write " // path // ": " // trim(message))
             return
         end if
-        write (unit, '(a)') csv_header
+        write (unit, '(a)', iostat=ios, iomsg=message) csv_header
         do i = 1, size(rows)
-            write (unit, '(a)') csv_line(rows(i))
+            if (ios /= 0) exit
+            write (unit, '(a)', iostat=ios, iomsg=message) csv_line(rows(i))
         end do
         close (unit)
-    end subroutine write_rows
+        if (ios /= 0) call fail(status, "cannot write " // path // ": " // trim(message))
+    end subroutine write_bench_csv
 
-    !> Read rows written by `write_rows` (a missing file gives no rows and no error when
-    !! `optional_file`).
+    !> Read rows written by `write_bench_csv` and append them to `rows`. A missing file
+    !! gives no rows and no error when `optional_file`. Failure (HOLOSYM_INVALID_ARGUMENT:
+    !! an unreadable file, no bench header, a line without 21 fields, a field that is not a
+    !! number, a per-step row whose method is not variant-0 .. variant-9) names the file,
+    !! the line and the field; `rows` is then unchanged.
     subroutine read_bench_csv(path, rows, status, optional_file)
         character(len=*), intent(in) :: path !! CSV file
         type(bench_row_t), allocatable, intent(inout) :: rows(:) !! rows are appended
         type(holosym_status_t), intent(inout) :: status !! I/O or format failure
         logical, intent(in), optional :: optional_file !! a missing file is not an error
+        integer, parameter :: field_count = 21
+        character(len=*), parameter :: field_names(field_count) = [character(len=21) :: &
+            "system", "method", "precision", "M", "N", "G", "order", "h", "steps", "error", &
+            "energy_error", "constraint_residual", "seconds", "seconds_per_step", &
+            "newton_iterations", "residual_evaluations", "gradient_evaluations", &
+            "hessian_evaluations", "lu_factorizations", "status", "difference_from_plain"]
         character(len=1024) :: line
-        character(len=64) :: fields(21)
+        character(len=256) :: message
+        character(len=64) :: fields(field_count)
+        type(bench_row_t), allocatable :: read_rows(:)
         type(bench_row_t) :: row
         real(wp) :: value
         integer :: unit, ios, first, k, comma, line_number
@@ -244,15 +260,25 @@ contains
             call fail(status, "cannot read " // path // ": no such file")
             return
         end if
-        open (newunit=unit, file=path, status="old", action="read", iostat=ios)
-        read (unit, '(a)', iostat=ios) line
+        open (newunit=unit, file=path, status="old", action="read", iostat=ios, iomsg=message)
+        if (ios /= 0) then
+            call fail(status, "cannot read " // path // ": " // trim(message))
+            return
+        end if
+        allocate (read_rows(0))
         line_number = 1
+        read (unit, '(a)', iostat=ios) line
+        if (ios /= 0 .or. trim(line) /= csv_header) then
+            call bad_line("not the header of a bench CSV file")
+            return
+        end if
         do
             read (unit, '(a)', iostat=ios) line
             if (ios /= 0) exit
             line_number = line_number + 1
+            ! Split at the commas; k ends as the number of fields found (at most 21).
             first = 1
-            do k = 1, size(fields)
+            do k = 1, field_count
                 comma = index(line(first:), ",")
                 if (comma == 0) then
                     fields(k) = line(first:)
@@ -261,37 +287,89 @@ contains
                 fields(k) = line(first:first + comma - 2)
                 first = first + comma
             end do
-            if (k < size(fields)) then
-                call fail(status, path // ": line " // int_str(line_number) // " has " // &
-                    int_str(k) // " fields, expected " // int_str(size(fields)))
-                close (unit)
+            if (k /= field_count) then
+                call bad_line("expected " // int_str(field_count) // " comma-separated fields")
                 return
             end if
             row%system = fields(1)
             row%method = fields(2)
             row%precision = fields(3)
-            read (fields(4), *) row%order_m
-            read (fields(5), *) row%order_n
-            read (fields(6), *) row%gauss_points
-            read (fields(7), *) row%order
-            read (fields(8), *) row%h
-            read (fields(9), *) row%steps
-            read (fields(10), *) row%error
-            read (fields(11), *) row%energy_error
-            read (fields(12), *) row%constraint_residual
-            read (fields(13), *) value
+            read (fields(4), *, iostat=ios) row%order_m
+            if (.not. field_ok(4)) return
+            read (fields(5), *, iostat=ios) row%order_n
+            if (.not. field_ok(5)) return
+            read (fields(6), *, iostat=ios) row%gauss_points
+            if (.not. field_ok(6)) return
+            read (fields(7), *, iostat=ios) row%order
+            if (.not. field_ok(7)) return
+            read (fields(8), *, iostat=ios) row%h
+            if (.not. field_ok(8)) return
+            read (fields(9), *, iostat=ios) row%steps
+            if (.not. field_ok(9)) return
+            read (fields(10), *, iostat=ios) row%error
+            if (.not. field_ok(10)) return
+            read (fields(11), *, iostat=ios) row%energy_error
+            if (.not. field_ok(11)) return
+            read (fields(12), *, iostat=ios) row%constraint_residual
+            if (.not. field_ok(12)) return
+            read (fields(13), *, iostat=ios) value
+            if (.not. field_ok(13)) return
             row%seconds = real(value, real64)
-            read (fields(15), *) row%newton_iterations
-            read (fields(16), *) row%residuals
-            read (fields(17), *) row%gradients
-            read (fields(18), *) row%hessians
-            read (fields(19), *) row%factorizations
-            read (fields(20), *) row%code
-            read (fields(21), *) row%difference
-            rows = [rows, row]
+            read (fields(15), *, iostat=ios) row%newton_iterations
+            if (.not. field_ok(15)) return
+            read (fields(16), *, iostat=ios) row%residuals
+            if (.not. field_ok(16)) return
+            read (fields(17), *, iostat=ios) row%gradients
+            if (.not. field_ok(17)) return
+            read (fields(18), *, iostat=ios) row%hessians
+            if (.not. field_ok(18)) return
+            read (fields(19), *, iostat=ios) row%factorizations
+            if (.not. field_ok(19)) return
+            read (fields(20), *, iostat=ios) row%code
+            if (.not. field_ok(20)) return
+            read (fields(21), *, iostat=ios) row%difference
+            if (.not. field_ok(21)) return
+            if (index(row%method, variant_prefix) == 1 .and. step_variant(row%method) < 0) then
+                call bad_line("method '" // trim(row%method) // "' is not " // variant_prefix &
+                    // "0 .. " // variant_prefix // int_str(variant_count))
+                return
+            end if
+            read_rows = [read_rows, row]
         end do
         close (unit)
+        rows = [rows, read_rows]
+
+    contains
+
+        !> Whether the field just read was a number; if not, fail naming it.
+        logical function field_ok(k)
+            integer, intent(in) :: k !! field index
+            field_ok = ios == 0
+            if (.not. field_ok) call bad_line("field " // trim(field_names(k)) // &
+                " is not a number: '" // trim(fields(k)) // "'")
+        end function field_ok
+
+        !> Fail naming the file and line; close the file.
+        subroutine bad_line(reason)
+            character(len=*), intent(in) :: reason !! what is wrong with the line
+            call fail(status, path // ": line " // int_str(line_number) // ": " // reason)
+            close (unit)
+        end subroutine bad_line
+
     end subroutine read_bench_csv
+
+    !> The option set k of a per-step row's method "variant-k", or -1 when the method is
+    !! not one of variant-0 .. variant-<variant_count>.
+    pure integer function step_variant(method)
+        character(len=*), intent(in) :: method !! e.g. "variant-3"
+        integer :: ios
+        step_variant = -1
+        if (index(method, variant_prefix) /= 1) return
+        read (method(len(variant_prefix) + 1:), *, iostat=ios) step_variant
+        if (ios /= 0) step_variant = -1
+        if (step_variant > variant_count) step_variant = -1
+        step_variant = max(step_variant, -1)
+    end function step_variant
 
     !> Reference states: read "system,q or p,index,value" lines, or compute and write them.
     subroutine reference_for(system, sys, q0, p0, options, q_ref, p_ref, err_unit, status)
@@ -304,8 +382,9 @@ contains
         type(holosym_status_t), intent(inout) :: status
         character(len=256) :: line
         character(len=16) :: name, kind
-        integer :: unit, ios, index_value, found, k
+        integer :: unit, ios, index_value, found, k, system_index
         real(wp) :: value, change
+        character(len=256) :: message
         if (len(options%reference) > 0) then
             open (newunit=unit, file=options%reference, status="old", action="read", iostat=ios)
             if (ios /= 0) then
@@ -331,26 +410,31 @@ contains
                 options%reference // " lacks system " // system)
             return
         end if
-        k = findloc(bench_systems, system, dim=1)
-        call reference_state(sys, q0, p0, bench_span(system), reference_steps(k), q_ref, &
-                             p_ref, change, status)
+        system_index = findloc(bench_systems, system, dim=1)
+        call reference_state(sys, q0, p0, bench_span(system), reference_steps(system_index), &
+                             q_ref, p_ref, change, status)
         if (.not. status%ok()) return
         write (err_unit, '(a)') "bench: reference for " // system // ": M = 8 (order 16), h = " &
-            // real_str(reference_steps(k) / 2) // "; it differs from h = " // &
-            real_str(reference_steps(k)) // " by " // real_str(change) // &
+            // real_str(reference_steps(system_index) / 2) // "; it differs from h = " // &
+            real_str(reference_steps(system_index)) // " by " // real_str(change) // &
             ", so its own error is about " // real_str(change / (2.0_wp**16 - 1))
         open (newunit=unit, file=options%out_dir // "/reference.csv", position="append", &
-              action="write", iostat=ios)
-        if (ios /= 0) return
+              action="write", iostat=ios, iomsg=message)
+        if (ios /= 0) then
+            call fail(status, "cannot write " // options%out_dir // "/reference.csv: " // &
+                trim(message))
+            return
+        end if
         do k = 1, size(q_ref)
             write (unit, '(a)') system // ",q," // int_str(k) // "," // csv_real(q_ref(k))
         end do
         do k = 1, size(p_ref)
             write (unit, '(a)') system // ",p," // int_str(k) // "," // csv_real(p_ref(k))
         end do
-        write (unit, '(a)') "# " // system // ": M = 8, h = " // real_str(reference_steps(k)) &
-            // " and h/2 differ by " // real_str(change) // "; estimated error of the h/2 run " &
-            // real_str(change / (2.0_wp**16 - 1))
+        write (unit, '(a)') "# " // system // ": M = 8, h = " // &
+            real_str(reference_steps(system_index)) // " and h/2 differ by " // &
+            real_str(change) // "; estimated error of the h/2 run " // &
+            real_str(change / (2.0_wp**16 - 1))
         close (unit)
     end subroutine reference_for
 
@@ -366,7 +450,8 @@ contains
         type(bench_settings_t) :: settings
         type(bench_row_t) :: row
         type(holosym_status_t) :: run_status
-        integer :: s, order_m, gauss_points, order, family, variant, config
+        integer :: s, order_m, gauss_points, order, family, variant, config, ios
+        character(len=256) :: message
         character(len=11), parameter :: families(2) = [character(len=11) :: "triple-jump", &
                                                         "suzuki"]
         allocate (rows(0), steps_rows(0))
@@ -374,7 +459,12 @@ contains
         settings%progress_unit = err_unit
         if (len(options%reference) == 0) then
             open (newunit=s, file=options%out_dir // "/reference.csv", status="replace", &
-                  action="write")
+                  action="write", iostat=ios, iomsg=message)
+            if (ios /= 0) then
+                call fail(status, "cannot write " // options%out_dir // "/reference.csv: " &
+                    // trim(message))
+                return
+            end if
             write (s, '(a)') "# reference states q(T), p(T): system,q|p,index,value"
             close (s)
         end if
@@ -401,7 +491,7 @@ contains
                         row%difference = max(maxval(abs(q_end - q_plain)), &
                                              maxval(abs(p_end - p_plain)))
                         row%system = "pendulum"
-                        write (row%method, '(a, i0)') "variant-", variant
+                        write (row%method, '(a, i0)') variant_prefix, variant
                         steps_rows = [steps_rows, row]
                         write (err_unit, '(a)') "bench: per step (" // &
                             int_str(row%order_m) // "," // int_str(row%order_n) // "," // &
@@ -559,7 +649,8 @@ contains
         write (unit, '(a)') "|---|---|---|---|---|---|---|---|"
         plain = 0
         do c = 1, size(steps_rows)
-            read (steps_rows(c)%method(9:), *) variant
+            variant = step_variant(steps_rows(c)%method)
+            if (variant < 0) cycle
             if (variant == 0) plain = c
             if (plain == 0) cycle
             per_step = steps_rows(c)%seconds / max(steps_rows(c)%steps, 1)
@@ -588,6 +679,7 @@ contains
         type(holosym_status_t) :: status
         type(bench_row_t), allocatable :: rows(:), steps_rows(:), all_rows(:)
         character(len=:), allocatable :: dir, csv_name
+        character(len=256) :: message
         integer :: unit, ios
 
         call parse_bench_options(args, options, status)
@@ -600,9 +692,9 @@ contains
             call execute_command_line("mkdir -p '" // dir // "'")
             call run_bench(options, err_unit, rows, steps_rows, status)
             csv_name = merge("bench64.csv", "bench.csv  ", wp_is_double)
-            if (status%ok()) call write_rows(dir // "/" // trim(csv_name), rows, status)
-            if (status%ok() .and. size(steps_rows) > 0) call write_rows(dir // "/" // &
-                merge("steps64.csv", "steps.csv  ", wp_is_double), steps_rows, status)
+            if (status%ok()) call write_bench_csv(dir // "/" // trim(csv_name), rows, status)
+            if (status%ok() .and. size(steps_rows) > 0) call write_bench_csv(dir // &
+                "/" // merge("steps64.csv", "steps.csv  ", wp_is_double), steps_rows, status)
         end if
         allocate (all_rows(0))
         if (allocated(steps_rows)) deallocate (steps_rows)
@@ -611,6 +703,8 @@ contains
         if (status%ok()) call read_bench_csv(dir // "/bench64.csv", all_rows, status, .true.)
         if (status%ok()) call read_bench_csv(dir // "/steps.csv", steps_rows, status, .true.)
         if (status%ok()) call read_bench_csv(dir // "/steps64.csv", steps_rows, status, .true.)
+        if (status%ok() .and. size(all_rows) + size(steps_rows) == 0) call fail(status, &
+            "no bench.csv, bench64.csv, steps.csv or steps64.csv in " // dir)
         if (.not. status%ok()) then
             write (err_unit, '(a)') "holosym bench: " // status%message
             exit_code = EXIT_FAILURE
@@ -618,11 +712,15 @@ contains
         end if
         call write_summary(all_rows, steps_rows, out_unit)
         open (newunit=unit, file=dir // "/summary.md", status="replace", action="write", &
-              iostat=ios)
-        if (ios == 0) then
-            call write_summary(all_rows, steps_rows, unit)
-            close (unit)
+              iostat=ios, iomsg=message)
+        if (ios /= 0) then
+            write (err_unit, '(a)') "holosym bench: cannot write " // dir // "/summary.md: " &
+                // trim(message)
+            exit_code = EXIT_FAILURE
+            return
         end if
+        call write_summary(all_rows, steps_rows, unit)
+        close (unit)
         exit_code = EXIT_OK
     end subroutine bench_command
 
