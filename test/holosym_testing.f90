@@ -8,7 +8,7 @@ module holosym_testing
     private
 
     public :: test_error_t, test_case_t, test_interface, new_test, run_suite
-    public :: check, check_close, check_status_code, skip
+    public :: check, check_close, check_status_code, skip, split_field
 
     !> A failed assertion (or a skipped test): its message.
     type :: test_error_t
@@ -122,5 +122,31 @@ contains
             flush (output_unit)
         end do
     end subroutine run_suite
+
+    !> The k-th field of `line` between `separator` characters ("" if there are fewer
+    !! fields): CSV fields with ",", Markdown table cells with "|" (field 1 is then the
+    !! text before the first bar).
+    pure function split_field(line, k, separator) result(text)
+        character(len=*), intent(in) :: line      !! the line
+        integer, intent(in) :: k                  !! field number, from 1
+        character(len=1), intent(in) :: separator !! field separator
+        character(len=:), allocatable :: text
+        integer :: first, i, next
+        first = 1
+        do i = 1, k - 1
+            next = index(line(first:), separator)
+            if (next == 0) then
+                text = ""
+                return
+            end if
+            first = first + next
+        end do
+        next = index(line(first:), separator)
+        if (next == 0) then
+            text = line(first:)
+        else
+            text = line(first:first + next - 2)
+        end if
+    end function split_field
 
 end module holosym_testing

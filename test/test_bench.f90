@@ -9,7 +9,7 @@ module test_bench
     use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NEWTON_DIVERGED
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
-        check_status_code
+        check_status_code, split_field
     use holosym_benchmark, only: bench_row_t, bench_span
     use holosym_cli_common, only: split_words, EXIT_OK, EXIT_FAILURE
     use holosym_cli_bench, only: read_bench_csv, write_bench_csv, write_summary, &
@@ -102,25 +102,25 @@ contains
         end do
     end function summary_line
 
-    !> Cell k (1-based) of a Markdown table row.
+    !> Cell k (1-based) of a Markdown table row "| cell 1 | cell 2 | ... |", trimmed.
     function cell(line, k) result(text)
         character(len=*), intent(in) :: line
         integer, intent(in) :: k
         character(len=:), allocatable :: text
-        integer :: i, first, bar
-        first = 2
-        do i = 1, k - 1
-            bar = index(line(first:), "|")
-            if (bar == 0) then
-                text = ""
-                return
-            end if
-            first = first + bar
-        end do
-        bar = index(line(first:), "|")
-        if (bar == 0) bar = len(line) - first + 2
-        text = trim(adjustl(line(first:first + bar - 2)))
+        text = trim(adjustl(split_field(line, k + 1, "|")))
     end function cell
+
+    !> The lines write_summary prints for these rows.
+    subroutine summary_of(rows, steps, lines, count)
+        type(bench_row_t), intent(in) :: rows(:), steps(:)
+        character(len=1000), allocatable, intent(out) :: lines(:)
+        integer, intent(out) :: count
+        integer :: unit
+        open (newunit=unit, status="scratch", action="readwrite")
+        call write_summary(rows, steps, unit)
+        call read_lines(unit, lines, count)
+        close (unit)
+    end subroutine summary_of
 
     !> Write lines to a file.
     subroutine write_file(path, lines)
@@ -281,7 +281,7 @@ contains
         character(len=1000), allocatable :: lines(:)
         character(len=:), allocatable :: line
         real(wp) :: nan
-        integer :: unit, count
+        integer :: count
         real(real64), parameter :: best_seconds = 4.0e-3_real64, rattle_seconds = 4.0e-2_real64
         character(len=16) :: expected
 
@@ -299,10 +299,7 @@ contains
                      rattle_seconds, 0), &
             make_row("pendulum", "rattle-triple-jump", "real128", 0, 0.125_wp, 1.0e-13_wp, &
                      8.0e-2_real64, 0)]
-        open (newunit=unit, status="scratch", action="readwrite")
-        call write_summary(rows, steps, unit)
-        call read_lines(unit, lines, count)
-        close (unit)
+        call summary_of(rows, steps, lines, count)
 
         line = summary_line(lines, "real128", "1.00000E-0010", "pendulum")
         call check(error, len(line) > 0, "a real128 line for 1e-10, pendulum")
@@ -333,10 +330,7 @@ contains
         ! A real64 row adds its section, against the table's double column.
         rows = [rows, make_row("pendulum", "holosym", "real64", 4, 0.5_wp, 1.0e-11_wp, &
                                1.0e-4_real64, 0)]
-        open (newunit=unit, status="scratch", action="readwrite")
-        call write_summary(rows, steps, unit)
-        call read_lines(unit, lines, count)
-        close (unit)
+        call summary_of(rows, steps, lines, count)
         line = summary_line(lines, "real64", "1.00000E-0010", "pendulum")
         call check(error, cell(line, 3) == "(4,3,5) h=0.5000", "real64 line: " // line)
         write (expected, '(es9.2)') issue_table_pendulum_1e10_double
@@ -352,7 +346,7 @@ contains
         type(bench_row_t) :: rows(0)
         type(bench_row_t) :: steps(3)
         character(len=1000), allocatable :: lines(:)
-        integer :: unit, count, i, found
+        integer :: count, i, found
         character(len=16) :: expected
         steps(1) = make_row("pendulum", "variant-0", "real128", 2, 0.125_wp, 1.0_wp, &
                             0.8_real64, 0)
@@ -361,10 +355,7 @@ contains
         steps(3) = make_row("pendulum", "variant-9", "real128", 2, 0.125_wp, 1.0_wp, &
                             0.1_real64, 0)
         steps%newton_iterations = [480_int64, 0_int64, 400_int64]
-        open (newunit=unit, status="scratch", action="readwrite")
-        call write_summary(rows, steps, unit)
-        call read_lines(unit, lines, count)
-        close (unit)
+        call summary_of(rows, steps, lines, count)
         found = 0
         do i = 1, count
             if (index(lines(i), "| (2,1,3) real128 |") /= 1) cycle

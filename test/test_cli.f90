@@ -5,7 +5,7 @@ module test_cli
     use holosym_kinds, only: wp
     use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_INVALID_ARGUMENT
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
-        check_status_code
+        check_status_code, split_field
     use holosym_cli, only: cli_run
     use holosym_cli_common, only: cli_argument_t, split_words, parse_integer, parse_real, &
         EXIT_OK, EXIT_FAILURE, EXIT_USAGE
@@ -111,29 +111,6 @@ contains
         count = size(lines)
     end subroutine read_all
 
-    !> The k-th comma-separated field of `line` ("" if there are fewer fields).
-    pure function field(line, k) result(text)
-        character(len=*), intent(in) :: line !! a CSV line
-        integer, intent(in) :: k             !! field number, from 1
-        character(len=:), allocatable :: text
-        integer :: first, i, comma
-        first = 1
-        do i = 1, k - 1
-            comma = index(line(first:), ",")
-            if (comma == 0) then
-                text = ""
-                return
-            end if
-            first = first + comma
-        end do
-        comma = index(line(first:), ",")
-        if (comma == 0) then
-            text = line(first:)
-        else
-            text = line(first:first + comma - 2)
-        end if
-    end function field
-
     !> The k-th field of `line` read as a real; `ios` /= 0 when it is not a number.
     subroutine field_real(line, k, value, ios)
         character(len=*), intent(in) :: line !! a CSV line
@@ -141,7 +118,7 @@ contains
         real(wp), intent(out) :: value       !! the number
         integer, intent(out) :: ios          !! iostat of the read
         character(len=:), allocatable :: text
-        text = field(line, k)
+        text = split_field(line, k, ",")
         value = 0
         read (text, *, iostat=ios) value
     end subroutine field_real
@@ -454,9 +431,9 @@ contains
         call field_real(lines(2)%text, 10, energy_error, ios)
         call check(error, ios == 0, "energy_error of the first row is a number")
         call check_close(error, energy_error, 0.0_wp, exact, exact, "energy_error at t = 0")
-        call check(error, field(lines(2)%text, 13) == "0", "0 Newton iterations at t = 0")
-        call check(error, mantissa_digits(field(lines(2)%text, 3)) >= significant_digits, &
-            "at least 33 significant digits: " // field(lines(2)%text, 3))
+        call check(error, split_field(lines(2)%text, 13, ",") == "0", "0 Newton iterations at t = 0")
+        call check(error, mantissa_digits(split_field(lines(2)%text, 3, ",")) >= significant_digits, &
+            "at least 33 significant digits: " // split_field(lines(2)%text, 3, ","))
         h = config%step_size
         call field_real(lines(count)%text, 1, t, ios)
         call check_close(error, t, 5 * h, exact, exact, "last row at t = 5 h")
