@@ -366,9 +366,7 @@ contains
         step_variant = -1
         if (index(method, variant_prefix) /= 1) return
         read (method(len(variant_prefix) + 1:), *, iostat=ios) step_variant
-        if (ios /= 0) step_variant = -1
-        if (step_variant > variant_count) step_variant = -1
-        step_variant = max(step_variant, -1)
+        if (ios /= 0 .or. step_variant < 0 .or. step_variant > variant_count) step_variant = -1
     end function step_variant
 
     !> Reference states: read "system,q or p,index,value" lines, or compute and write them.
