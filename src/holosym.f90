@@ -18,6 +18,7 @@ module holosym
         full_rank_constraints
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
+    use holosym_model_chain, only: pendulum_chain
     use holosym_projection, only: project_to_manifold, projection_report_t, &
         projection_max_iterations_default
     implicit none

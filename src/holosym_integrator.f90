@@ -42,7 +42,9 @@ module holosym_integrator
     use holosym_scheme, only: discrete_scheme, JACOBIAN_ASSEMBLED, &
         JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, &
-        full_rank_constraints
+        full_rank_constraints, sparse_manifold_residuals, sparse_full_rank_constraints
+    use holosym_reduced_step, only: reduced_step_t, reduced_report_t
+    use holosym_reduced_scheme, only: reduced_structure
     implicit none
     private
 
@@ -56,6 +58,10 @@ module holosym_integrator
     !> A step whose end state misses a constraint by more than this (scaled as in
     !! manifold_residuals) has not converged: sqrt(epsilon).
     real(wp), parameter :: end_state_tolerance = sqrt(epsilon(1.0_wp))
+
+    !> The reduced step falls back on the general one for systems with at most this many
+    !! general unknowns (its dense workspace is then at most a few megabytes).
+    integer, parameter :: general_fallback_size = 400
 
     !> What one step did and how well the constraints hold after it.
     type :: step_info_t
@@ -142,7 +148,16 @@ module holosym_integrator
         type(integrator_stats_t) :: stats
         !> Largest scaled residual of an accepted start state (see manifold_residuals).
         real(wp) :: manifold_tolerance = manifold_tolerance_default
+        !> Use the reduced step (momenta eliminated, sparse linear algebra) when the system
+        !! declares a constant diagonal mass matrix (`diagonal_mass`); read by `init`.
+        logical :: structured = .true.
         type(discrete_scheme), private :: scheme
+        type(reduced_step_t), private :: reduced
+        logical, private :: reduced_active = .false.
+        ! The general scheme is set up: the main path, or the reduced path's fallback.
+        logical, private :: general_ready = .false.
+        ! The last step was solved by the general scheme (its dense output, extrapolation).
+        logical, private :: last_general = .true.
         logical, private :: ready = .false.
         logical, private :: have_last = .false.
         real(wp), allocatable, private :: last_x(:), last_qa(:), last_pa(:)
@@ -186,9 +201,24 @@ contains
         type(holosym_status_t), intent(out), optional :: status !! outcome
         type(discrete_scheme) :: scheme
         type(holosym_status_t) :: local
+        real(wp), allocatable :: mass(:)
+        integer :: nx
 
-        call scheme%init(order_m, order_n, gauss_points, sys%n, sys%m, local)
+        allocate (mass(sys%n))
+        self%reduced_active = .false.
+        if (self%structured .and. sys%n >= 1) self%reduced_active = reduced_structure(sys, mass)
+        ! Checks of (M, N, G) and of the sizes are the general scheme's.
+        call scheme%check(order_m, order_n, gauss_points, sys%n, sys%m, local)
+        if (local%ok() .and. self%reduced_active) &
+            call self%reduced%init(sys, order_m, order_n, gauss_points, local)
+        ! The general scheme's workspace is dense (cubic in the size): as the reduced step's
+        ! fallback only for small systems.
+        self%general_ready = .not. self%reduced_active .or. &
+            scheme%nx <= general_fallback_size
+        if (local%ok() .and. self%general_ready) &
+            call scheme%init(order_m, order_n, gauss_points, sys%n, sys%m, local)
         if (.not. local%ok()) then
+            self%ready = .false.
             call set_status(status, local%code, local%message)
             return
         end if
@@ -202,14 +232,17 @@ contains
                                                 self%q_end_work, self%p_end_work)
         if (allocated(self%last_x)) deallocate (self%last_x, self%last_qa, self%last_pa, &
                                                 self%last_qb, self%last_pb)
-        allocate (self%x_work(scheme%nx), self%dq_work(sys%n), self%dp_work(sys%n), &
+        nx = scheme%nx
+        if (.not. self%general_ready) nx = 0
+        allocate (self%x_work(nx), self%dq_work(sys%n), self%dp_work(sys%n), &
                   self%q_end_work(sys%n), self%p_end_work(sys%n))
-        allocate (self%last_x(scheme%nx), self%last_qa(sys%n), self%last_pa(sys%n), &
+        allocate (self%last_x(nx), self%last_qa(sys%n), self%last_pa(sys%n), &
                   self%last_qb(sys%n), self%last_pb(sys%n))
         ! A fresh workspace: nothing learnt by an earlier run (kept factors, the
         ! quadratic-convergence constant) may change the results of this one.
         self%workspace = newton_workspace_t()
-        call self%workspace%setup(scheme%nx)
+        if (self%general_ready) call self%workspace%setup(scheme%nx)
+        self%last_general = .not. self%reduced_active
         self%applied_modes = 0
         self%stats = integrator_stats_t()
         call set_status(status, HOLOSYM_SUCCESS, "")
@@ -237,6 +270,8 @@ contains
 
         if (.not. self%ready) then
             call set_status(status, HOLOSYM_NOT_INITIALIZED, "call init before step or integrate")
+        else if (.not. settings_valid(self, rank_message)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, rank_message)
         else if (sys%n /= self%scheme%n .or. sys%m /= self%scheme%m) then
             call set_status(status, HOLOSYM_INVALID_DIMENSION, "system has n = " // int_str(sys%n) &
                 // ", m = " // int_str(sys%m) // " but the integrator was set up for n = " // &
@@ -249,10 +284,11 @@ contains
                 // "finite; got h = " // real_str(h))
         else if (.not. (all(is_finite(q)) .and. all(is_finite(p)))) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "q or p contains NaN or Inf")
-        else if (.not. full_rank_constraints(sys, q, rank_message)) then
+        else if (.not. rank_test(self, sys, q, rank_message)) then
             call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, rank_message)
         else
-            call manifold_residuals(sys, q, p, position, velocity, scaled_position, scaled_velocity)
+            call state_residuals(self, sys, q, p, position, velocity, scaled_position, &
+                                 scaled_velocity)
             if (.not. (is_finite(scaled_position) .and. is_finite(scaled_velocity))) then
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, &
                     "constraint, constraint_jacobian " &
@@ -273,6 +309,94 @@ contains
             end if
         end if
     end subroutine validate
+
+    !> Whether every setting of the integrator is in its range; `message` names the first
+    !! that is not.
+    logical function settings_valid(self, message)
+        class(constrained_integrator), intent(in) :: self
+        character(len=:), allocatable, intent(out) :: message
+        message = ""
+        associate (s => self%newton)
+            if (s%max_iterations < 1) then
+                message = "newton%max_iterations must be >= 1, got " // &
+                    int_str(s%max_iterations)
+            else if (.not. (is_finite(s%tolerance) .and. s%tolerance > 0)) then
+                message = "newton%tolerance must be positive and finite, got " // &
+                    real_str(s%tolerance)
+            else if (.not. (is_finite(s%stagnation_level) .and. s%stagnation_level >= 0)) then
+                message = "newton%stagnation_level must be >= 0 and finite, got " // &
+                    real_str(s%stagnation_level)
+            else if (.not. (s%contraction_limit > 0 .and. s%contraction_limit < 1)) then
+                message = "newton%contraction_limit must be in (0, 1), got " // &
+                    real_str(s%contraction_limit)
+            else if (.not. (is_finite(s%jacobian_cost) .and. s%jacobian_cost >= 0)) then
+                message = "newton%jacobian_cost must be >= 0 and finite, got " // &
+                    real_str(s%jacobian_cost)
+            else if (.not. (is_finite(self%manifold_tolerance) .and. &
+                            self%manifold_tolerance > 0)) then
+                message = "manifold_tolerance must be positive and finite, got " // &
+                    real_str(self%manifold_tolerance)
+            end if
+        end associate
+        if (len(message) == 0) then
+            select case (self%linear_solver)
+            case ("real128", "native", "mixed", "lapack")
+            case default
+                message = "linear_solver must be 'real128' or 'mixed'; got '" // &
+                    trim(self%linear_solver) // "'"
+            end select
+        end if
+        if (len(message) == 0) then
+            select case (self%jacobian)
+            case ("assembled", "residual-differences")
+            case default
+                message = "jacobian must be 'assembled' or 'residual-differences'; got '" // &
+                    trim(self%jacobian) // "'"
+            end select
+        end if
+        if (len(message) == 0) then
+            select case (self%hessians)
+            case ("user", "differences")
+            case default
+                message = "hessians must be 'user' or 'differences'; got '" // &
+                    trim(self%hessians) // "'"
+            end select
+        end if
+        settings_valid = len(message) == 0
+    end function settings_valid
+
+    !> `manifold_residuals`, through Phi's sparse pattern on the reduced path.
+    subroutine state_residuals(self, sys, q, p, position, velocity, scaled_position, &
+                               scaled_velocity)
+        class(constrained_integrator), intent(in) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: position, velocity, scaled_position, scaled_velocity
+        if (self%reduced_active) then
+            call sparse_manifold_residuals(sys, self%reduced%scheme%layout%phi_rows, &
+                self%reduced%scheme%layout%phi_cols, q, p, position, velocity, &
+                scaled_position, scaled_velocity)
+        else
+            call manifold_residuals(sys, q, p, position, velocity, scaled_position, &
+                                    scaled_velocity)
+        end if
+    end subroutine state_residuals
+
+    !> `full_rank_constraints`, banded through Phi's sparse pattern on the reduced path.
+    logical function rank_test(self, sys, q, message)
+        class(constrained_integrator), intent(in) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:)
+        character(len=:), allocatable, intent(out) :: message
+        if (self%reduced_active) then
+            associate (lay => self%reduced%scheme%layout)
+                rank_test = sparse_full_rank_constraints(sys, lay%phi_rows, lay%phi_cols, &
+                                                         lay%constraint_order, q, message)
+            end associate
+        else
+            rank_test = full_rank_constraints(sys, q, message)
+        end if
+    end function rank_test
 
     !> Zero the work counters `stats`.
     subroutine integrator_reset_statistics(self)
@@ -361,6 +485,33 @@ contains
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
+        character(len=:), allocatable :: reduced_message
+        if (.not. self%reduced_active) then
+            call solve_general(self, sys, q, p, h, status)
+            return
+        end if
+        call solve_reduced(self, sys, q, p, h, status)
+        self%last_general = .false.
+        if (status%ok() .or. .not. self%general_ready .or. &
+            status%code == HOLOSYM_NONFINITE_VALUE) return
+        ! The reduced step factors its Newton matrix in real64 only: where that is too
+        ! ill-conditioned (nearly dependent constraints), the general step of a small system
+        ! has working-precision factors to fall back on.
+        reduced_message = status%message
+        call solve_general(self, sys, q, p, h, status)
+        if (status%ok()) then
+            self%last_general = .true.
+        else
+            status%message = status%message // " (after the " // reduced_message // ")"
+        end if
+    end subroutine solve_step
+
+    !> `solve_step` by the general scheme (all unknowns, dense Newton).
+    subroutine solve_general(self, sys, q, p, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        type(holosym_status_t), intent(out) :: status
         real(wp) :: scale, max_phi, end_velocity_residual
         type(newton_report_t) :: report
         logical :: extrapolated
@@ -376,7 +527,8 @@ contains
         lowered0 = self%scheme%counters%lowered_residuals
         call self%scheme%set_step(sys, q, p, h)
         extrapolated = .false.
-        if (self%extrapolate) extrapolated = continues_last_step(self, q, p)
+        if (self%extrapolate) extrapolated = continues_last_step(self, q, p) .and. &
+            self%last_general
         call first_guess()
         ! Increments are compared with the size of the state, not with themselves.
         scale = max(maxval(abs(q)), maxval(abs(p)))
@@ -519,7 +671,84 @@ contains
             self%stats%hessian_evaluations = self%stats%hessian_evaluations + hessians
         end subroutine count_evaluations
 
-    end subroutine solve_step
+    end subroutine solve_general
+
+    !> `solve_step` by the reduced step (momenta eliminated; `holosym_reduced_step`).
+    subroutine solve_reduced(self, sys, q, p, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        type(holosym_status_t), intent(out) :: status
+        type(reduced_report_t) :: report
+        real(wp) :: position, velocity, scaled_position, scaled_velocity, max_phi
+        integer :: gradients0, i
+
+        gradients0 = self%reduced%scheme%gradients
+        call self%reduced%solve(sys, q, p, h, self%newton%tolerance, &
+            self%newton%stagnation_level, self%newton%max_iterations, &
+            self%extrapolate .and. continues_last_step(self, q, p), self%dq_work, &
+            self%dp_work, report, status)
+        self%stats%newton_iterations = self%stats%newton_iterations + report%iterations
+        self%stats%lu_factorizations = self%stats%lu_factorizations + report%factorizations
+        self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + report%factorizations
+        self%stats%residual_evaluations = self%stats%residual_evaluations + report%residuals
+        self%stats%lowered_residual_evaluations = self%stats%lowered_residual_evaluations + &
+            report%lowered_residuals
+        self%stats%gradient_evaluations = self%stats%gradient_evaluations + &
+            (self%reduced%scheme%gradients - gradients0)
+        if (status%ok()) then
+            if (.not. (all_finite(self%dq_work) .and. all_finite(self%dp_work))) &
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "step produced a " // &
+                "non-finite state")
+        end if
+        if (status%ok()) then
+            self%q_end_work = q + self%dq_work
+            self%p_end_work = p + self%dp_work
+            call state_residuals(self, sys, self%q_end_work, self%p_end_work, position, &
+                                 velocity, scaled_position, scaled_velocity)
+            if (.not. (scaled_position <= end_state_tolerance .and. &
+                       scaled_velocity <= end_state_tolerance)) then
+                call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton stopped at a " // &
+                    "point off the constraints (end state max|phi| = " // real_str(position) // &
+                    ", max|Phi H_p| = " // real_str(velocity) // ")")
+            end if
+        end if
+        if (.not. status%ok()) then
+            status%message = "reduced step with (M, N, G) = (" // &
+                int_str(self%scheme%order_m) // ", " // int_str(self%scheme%order_n) // ", " // &
+                int_str(self%scheme%gauss_points) // "), h = " // real_str(h) // ": " // &
+                status%message
+            self%have_last = .false.
+            return
+        end if
+        call self%reduced%scheme%multipliers(self%reduced%last_x, h, self%last_info%lambda)
+        max_phi = 0
+        if (sys%m > 0) then
+            do i = 0, self%scheme%order_m
+                self%p_end_work = q
+                if (i > 0) self%p_end_work = q + &
+                    self%reduced%last_x(self%reduced%scheme%layout%z_col(:, i))
+                call sys%constraint(self%p_end_work, self%reduced%scheme%phi_work)
+                max_phi = max(max_phi, maxval(abs(self%reduced%scheme%phi_work)))
+            end do
+        end if
+        self%last_info%newton_iterations = report%iterations
+        self%last_info%constraint_residual = max_phi
+        self%last_info%velocity_residual = velocity
+        self%last_info%pivot_ratio = report%pivot_ratio
+        self%last_info%lu_factorizations = report%factorizations
+        self%last_info%residual_evaluations = report%residuals
+        self%last_info%lowered_residual_evaluations = report%lowered_residuals
+        self%last_info%gradient_evaluations = self%reduced%scheme%gradients - gradients0
+        self%last_info%hessian_evaluations = 0
+        self%last_qa = q
+        self%last_pa = p
+        self%last_h = h
+        self%last_qb = q + self%dq_work
+        self%last_pb = p + self%dp_work
+        self%have_last = .true.
+        self%stats%steps = self%stats%steps + 1
+    end subroutine solve_reduced
 
     !> Advance (q, p) by one step of size h. On failure q and p are unchanged.
     !! Codes: HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH,
@@ -584,7 +813,10 @@ contains
         end if
         ! A run that does not continue the last step depends only on its arguments: the
         ! factors and habits simplified Newton learnt in earlier runs are forgotten.
-        if (.not. continues_last_step(self, q, p)) call self%workspace%reset()
+        if (.not. continues_last_step(self, q, p)) then
+            call self%workspace%reset()
+            if (self%reduced_active) call self%reduced%forget()
+        end if
         t0 = 0
         if (present(start_time)) t0 = start_time
         allocate (q_error(size(q)), p_error(size(p)), summand(size(q)), total(size(q)))
@@ -643,8 +875,13 @@ contains
             call set_status(status, HOLOSYM_SIZE_MISMATCH, "dense output needs q, p of size " // &
                 int_str(self%scheme%n) // " and lambda of size " // int_str(self%scheme%m))
         else
-            call self%scheme%dense(self%last_x, self%last_qa, self%last_pa, self%last_h, tau, &
-                                   q, p, lambda)
+            if (.not. self%last_general) then
+                call self%reduced%scheme%dense(self%reduced%last_x, self%last_qa, self%last_h, &
+                                               tau, q, p, lambda)
+            else
+                call self%scheme%dense(self%last_x, self%last_qa, self%last_pa, self%last_h, &
+                                       tau, q, p, lambda)
+            end if
             call set_status(status, HOLOSYM_SUCCESS, "")
         end if
     end subroutine integrator_dense_output

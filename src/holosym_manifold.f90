@@ -8,7 +8,8 @@ module holosym_manifold
     implicit none
     private
 
-    public :: manifold_residuals, full_rank_constraints
+    public :: manifold_residuals, full_rank_constraints, sparse_manifold_residuals, &
+        sparse_full_rank_constraints
 
     !> Default tolerance on the scaled residuals: 2**10 epsilon, room for the round-off of
     !! evaluating phi and Phi H_p with a few hundred operations.
@@ -48,6 +49,129 @@ contains
                 abs(hidden(l)) / (1 + sum(abs(jac(l, :)) * abs(hp))))
         end do
     end subroutine manifold_residuals
+
+    !> `manifold_residuals` for a system with a sparse constraint Jacobian: Phi from
+    !! `constraint_jacobian_values` at the pattern (rows, columns) of `constraint_sparsity`
+    !! (no m x n matrix is formed). Same results.
+    subroutine sparse_manifold_residuals(sys, rows, columns, q, p, position, velocity, &
+                                         scaled_position, scaled_velocity)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        integer, intent(in) :: rows(:)     !! pattern of Phi: constraint of each entry
+        integer, intent(in) :: columns(:)  !! pattern of Phi: coordinate of each entry
+        real(wp), intent(in) :: q(:)  !! coordinates (n)
+        real(wp), intent(in) :: p(:)  !! momenta (n)
+        real(wp), intent(out) :: position  !! max |phi_l(q)|
+        real(wp), intent(out) :: velocity  !! max |(Phi(q) H_p(q,p))_l|
+        real(wp), intent(out) :: scaled_position !! max |phi_l| / scale_l
+        real(wp), intent(out) :: scaled_velocity !! max |(Phi H_p)_l| / scale_l
+        real(wp), allocatable :: phi(:), values(:), hp(:), hidden(:), row_max(:), row_sum(:)
+        integer :: e, l
+        position = 0
+        velocity = 0
+        scaled_position = 0
+        scaled_velocity = 0
+        if (sys%m == 0) return
+        allocate (phi(sys%m), values(size(rows)), hp(sys%n), hidden(sys%m), row_max(sys%m), &
+                  row_sum(sys%m))
+        call sys%constraint(q, phi)
+        call sys%constraint_jacobian_values(q, rows, columns, values)
+        call sys%dh_dp(q, p, hp)
+        hidden = 0
+        row_max = 0
+        row_sum = 0
+        do e = 1, size(rows)
+            l = rows(e)
+            hidden(l) = hidden(l) + values(e) * hp(columns(e))
+            row_max(l) = max(row_max(l), abs(values(e)))
+            row_sum(l) = row_sum(l) + abs(values(e)) * abs(hp(columns(e)))
+        end do
+        position = maxval(abs(phi))
+        velocity = maxval(abs(hidden))
+        scaled_position = maxval(abs(phi) / (1 + maxval(abs(q)) * row_max))
+        scaled_velocity = maxval(abs(hidden) / (1 + row_sum))
+    end subroutine sparse_manifold_residuals
+
+    !> `full_rank_constraints` for a sparse Phi: the Cholesky factorisation of Phi Phi^T in
+    !! band storage, constraints taken in `order` (for which the Gram matrix should be
+    !! banded); a pivot below m epsilon times the largest diagonal entry means rank
+    !! deficient, as for the dense test. Work and memory grow like m times the band squared.
+    function sparse_full_rank_constraints(sys, rows, columns, order, q, message) &
+        result(full_rank)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        integer, intent(in) :: rows(:)     !! pattern of Phi: constraint of each entry
+        integer, intent(in) :: columns(:)  !! pattern of Phi: coordinate of each entry
+        integer, intent(in) :: order(:)    !! position of each constraint in the factorisation
+        real(wp), intent(in) :: q(:)       !! coordinates (n)
+        character(len=:), allocatable, intent(out) :: message !! why not, or empty
+        logical :: full_rank
+        real(wp), allocatable :: values(:), band(:, :)
+        integer, allocatable :: start(:), entry(:), fill(:)
+        integer :: e, f, c, a, b, width, i, j, k
+        real(wp) :: largest, threshold
+        message = ""
+        full_rank = .true.
+        if (sys%m == 0) return
+        allocate (values(size(rows)))
+        call sys%constraint_jacobian_values(q, rows, columns, values)
+        if (.not. all(is_finite(values))) return  ! reported as non-finite by the caller
+        ! Entries of each coordinate (column), to pair the constraints that share it.
+        allocate (start(sys%n + 1), fill(sys%n), entry(size(rows)))
+        fill = 0
+        do e = 1, size(rows)
+            fill(columns(e)) = fill(columns(e)) + 1
+        end do
+        start(1) = 1
+        do c = 1, sys%n
+            start(c + 1) = start(c) + fill(c)
+        end do
+        fill = start(1:sys%n)
+        do e = 1, size(rows)
+            entry(fill(columns(e))) = e
+            fill(columns(e)) = fill(columns(e)) + 1
+        end do
+        width = 0
+        do c = 1, sys%n
+            do a = start(c), start(c + 1) - 1
+                do b = start(c), start(c + 1) - 1
+                    width = max(width, abs(order(rows(entry(a))) - order(rows(entry(b)))))
+                end do
+            end do
+        end do
+        ! Lower band: band(1 + i - j, j) = G(i, j) for the ordered indices i >= j.
+        allocate (band(width + 1, sys%m))
+        band = 0
+        do c = 1, sys%n
+            do a = start(c), start(c + 1) - 1
+                do b = start(c), start(c + 1) - 1
+                    e = entry(a)
+                    f = entry(b)
+                    i = order(rows(e))
+                    j = order(rows(f))
+                    if (i >= j) band(1 + i - j, j) = band(1 + i - j, j) + values(e) * values(f)
+                end do
+            end do
+        end do
+        largest = maxval(band(1, :))
+        threshold = sys%m * epsilon(1.0_wp) * largest
+        do j = 1, sys%m
+            if (.not. band(1, j) > threshold) then
+                full_rank = .false.
+                message = "the constraint Jacobian Phi is rank deficient at q: a constraint " &
+                    // "is (nearly) a combination of the others (pivot " // int_str(j) // &
+                    " of " // int_str(sys%m) // " of Phi Phi^T below m epsilon)"
+                return
+            end if
+            band(1, j) = sqrt(band(1, j))
+            do i = 2, min(width + 1, sys%m - j + 1)
+                band(i, j) = band(i, j) / band(1, j)
+            end do
+            do k = 2, min(width + 1, sys%m - j + 1)
+                do i = k, min(width + 1, sys%m - j + 1)
+                    band(i - k + 1, j + k - 1) = band(i - k + 1, j + k - 1) - band(i, j) * band(k, j)
+                end do
+            end do
+        end do
+    end function sparse_full_rank_constraints
 
     !> True when Phi(q) has full row rank m: the LU of Phi Phi^T (m x m) finds no pivot
     !! below m epsilon relative, i.e. no singular value of Phi below ~sqrt(m epsilon) relative.

@@ -24,6 +24,8 @@ module holosym_models
         procedure :: hessian => sphere_hessian
         !> Exact second derivatives of phi.
         procedure :: constraint_hessian => sphere_constraint_hessian
+        !> H = p^T M^-1 p / 2 + U(q) with constant diagonal M: declared.
+        procedure :: diagonal_mass => sphere_diagonal_mass
         !> The paper's initial state q = (0, sqrt2/2, sqrt2/2), p = (0.6, 0, 0).
         procedure, nopass :: initial_state => sphere_initial_state
     end type spherical_pendulum
@@ -52,6 +54,8 @@ module holosym_models
         procedure :: hessian => linkage_hessian
         !> Exact second derivatives of phi.
         procedure :: constraint_hessian => linkage_constraint_hessian
+        !> H = p^T M^-1 p / 2 + U(q) with constant diagonal M: declared.
+        procedure :: diagonal_mass => linkage_diagonal_mass
         !> The paper's initial state q = (-0.1, 0, 0.7, 0, -0.3, 0.5), p = (0, .05, 0, -.05, 0, 0).
         procedure, nopass :: initial_state => linkage_initial_state
     end type spring_linkage
@@ -72,6 +76,8 @@ module holosym_models
         procedure :: hessian => planar_hessian
         !> Exact second derivatives of phi.
         procedure :: constraint_hessian => planar_constraint_hessian
+        !> H = p^T M^-1 p / 2 + U(q) with constant diagonal M: declared.
+        procedure :: diagonal_mass => planar_diagonal_mass
         !> q = (sin 1, -cos 1), p = 0.
         procedure, nopass :: initial_state => planar_initial_state
     end type planar_pendulum
@@ -116,6 +122,13 @@ contains
         real(wp), intent(out) :: gradient(:)
         gradient = p / self%mass
     end subroutine sphere_dh_dp
+
+    logical function sphere_diagonal_mass(self, mass) result(declared)
+        class(spherical_pendulum), intent(in) :: self
+        real(wp), intent(out) :: mass(:)
+        mass = self%mass
+        declared = .true.
+    end function sphere_diagonal_mass
 
     subroutine sphere_constraint(self, q, phi)
         class(spherical_pendulum), intent(in) :: self
@@ -204,6 +217,14 @@ contains
         gradient(1:4) = p(1:4) / self%ball_mass
         gradient(5:6) = p(5:6) / self%track_mass
     end subroutine linkage_dh_dp
+
+    logical function linkage_diagonal_mass(self, mass) result(declared)
+        class(spring_linkage), intent(in) :: self
+        real(wp), intent(out) :: mass(:)
+        mass(1:4) = self%ball_mass
+        mass(5:6) = self%track_mass
+        declared = .true.
+    end function linkage_diagonal_mass
 
     subroutine linkage_constraint(self, q, phi)
         class(spring_linkage), intent(in) :: self
@@ -345,6 +366,13 @@ contains
         hessian(1, 1, 1) = 2
         hessian(2, 2, 1) = 2
     end subroutine planar_constraint_hessian
+
+    logical function planar_diagonal_mass(self, mass) result(declared)
+        class(planar_pendulum), intent(in) :: self
+        real(wp), intent(out) :: mass(:)
+        mass = 1
+        declared = .true.
+    end function planar_diagonal_mass
 
     pure subroutine planar_initial_state(q, p)
         real(wp), intent(out) :: q(:) !! (sin 1, -cos 1)

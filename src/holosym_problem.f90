@@ -9,6 +9,17 @@
 !! Newton's method to converge to full precision.
 !!
 !! Equations of motion: q' = dH/dp, p' = -dH/dq - Phi(q)^T lambda, phi(q) = 0.
+!!
+!! What more a system can say is optional and makes the step cheaper (the reduced step of
+!! `holosym_reduced_step`, chosen automatically when `diagonal_mass` is declared):
+!! - `diagonal_mass`: H = p^T M^-1 p / 2 + U(q) with a constant diagonal mass matrix M
+!!   (Cartesian coordinates of point masses). The momenta are then eliminated from the
+!!   step equations, which leaves positions and multipliers as unknowns.
+!! - `constraint_sparsity` with `constraint_jacobian_values`: the nonzero pattern of Phi
+!!   and its values, so that no m x n matrix is ever formed;
+!! - `potential_sparsity`: the nonzero pattern of the Hessian of U.
+!! With both patterns declared, the step's linear algebra is banded (after a reordering
+!! of the unknowns) and its cost grows linearly with the size of a chain-like system.
 module holosym_problem
     use holosym_kinds, only: wp
     implicit none
@@ -41,6 +52,16 @@ module holosym_problem
         procedure :: hessian => difference_hessian
         !> Second derivatives of phi (optional; default: central differences of Phi).
         procedure :: constraint_hessian => difference_constraint_hessian
+        !> Optional declaration H = p^T M^-1 p / 2 + U(q) with constant diagonal M
+        !! (default: not declared).
+        procedure :: diagonal_mass => undeclared_mass
+        !> Optional nonzero pattern of Phi (default: dense).
+        procedure :: constraint_sparsity => dense_constraint_sparsity
+        !> Values of Phi at the declared pattern (default: gathered from
+        !! `constraint_jacobian`; override it when the pattern is sparse).
+        procedure :: constraint_jacobian_values => gathered_constraint_values
+        !> Optional nonzero pattern of the Hessian of U (default: dense).
+        procedure :: potential_sparsity => dense_potential_sparsity
     end type constrained_hamiltonian
 
     abstract interface
@@ -80,6 +101,70 @@ module holosym_problem
     end interface
 
 contains
+
+    !> Default `diagonal_mass`: nothing declared. A system whose Hamiltonian is
+    !! H = sum_i p_i^2 / (2 mass_i) + U(q) overrides it, sets `mass` and returns .true.;
+    !! its `dh_dq` must then not depend on p, and `dh_dp` must return p / mass.
+    logical function undeclared_mass(self, mass) result(declared)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        real(wp), intent(out) :: mass(:) !! the diagonal of M (n), positive
+        mass = 1
+        declared = .false.
+    end function undeclared_mass
+
+    !> Default `constraint_sparsity`: every entry of Phi may be nonzero. An override
+    !! returns the (row, column) pairs of the entries that may be nonzero, row = constraint
+    !! l in 1..m, column = coordinate i in 1..n, each pair once, in the order in which
+    !! `constraint_jacobian_values` returns their values.
+    subroutine dense_constraint_sparsity(self, rows, columns)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        integer, allocatable, intent(out) :: rows(:)    !! constraint index of each entry
+        integer, allocatable, intent(out) :: columns(:) !! coordinate index of each entry
+        integer :: l, i
+        allocate (rows(self%m * self%n), columns(self%m * self%n))
+        do i = 1, self%n
+            do l = 1, self%m
+                rows(l + (i - 1) * self%m) = l
+                columns(l + (i - 1) * self%m) = i
+            end do
+        end do
+    end subroutine dense_constraint_sparsity
+
+    !> Default `constraint_jacobian_values`: Phi(q) from `constraint_jacobian`, gathered at
+    !! the pattern of `constraint_sparsity` (forms the m x n matrix: override it together
+    !! with a sparse pattern).
+    subroutine gathered_constraint_values(self, q, rows, columns, values)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        real(wp), intent(in) :: q(:)         !! coordinates (n)
+        integer, intent(in) :: rows(:)       !! pattern from `constraint_sparsity`
+        integer, intent(in) :: columns(:)    !! pattern from `constraint_sparsity`
+        real(wp), intent(out) :: values(:)   !! Phi(rows(e), columns(e)) for each entry e
+        real(wp), allocatable :: jacobian(:, :)
+        integer :: e
+        allocate (jacobian(self%m, self%n))
+        call self%constraint_jacobian(q, jacobian)
+        do e = 1, size(rows)
+            values(e) = jacobian(rows(e), columns(e))
+        end do
+    end subroutine gathered_constraint_values
+
+    !> Default `potential_sparsity`: every second derivative of U may be nonzero. An
+    !! override returns the pairs (i, k) with d2U/dq_i dq_k possibly nonzero (either
+    !! triangle or both; the diagonal may be left out). A potential linear in q
+    !! (uniform gravity) returns two empty arrays.
+    subroutine dense_potential_sparsity(self, rows, columns)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        integer, allocatable, intent(out) :: rows(:)    !! first coordinate of each pair
+        integer, allocatable, intent(out) :: columns(:) !! second coordinate of each pair
+        integer :: i, k
+        allocate (rows(self%n**2), columns(self%n**2))
+        do k = 1, self%n
+            do i = 1, self%n
+                rows(i + (k - 1) * self%n) = i
+                columns(i + (k - 1) * self%n) = k
+            end do
+        end do
+    end subroutine dense_potential_sparsity
 
     !> Default second derivatives of H by central differences of `dh_dq` and `dh_dp`:
     !! `hqq(i,k) = d2H/dq_i dq_k`, `hqp(i,k) = d2H/dq_i dp_k`, `hpp(i,k) = d2H/dp_i dp_k`.

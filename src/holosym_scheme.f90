@@ -153,6 +153,8 @@ module holosym_scheme
     contains
         !> Set up the scheme for (M, N, G) and sizes (n, m).
         procedure :: init => scheme_init
+        !> Check and record (M, N, G) and sizes (n, m) without allocating.
+        procedure :: check => scheme_check
         !> Bind the system, start state and step size for the next solve.
         procedure :: set_step => scheme_set_step
         !> Residual of the step equations.
@@ -186,10 +188,10 @@ contains
         unknown_count = (order_m + order_n + 1) * n + (order_m + 1) * m
     end function unknown_count
 
-    !> Set up nodes, weights and basis matrices for (M, N, G) and the sizes (n, m).
+    !> Check (M, N, G) and the sizes (n, m) and record them, without allocating anything.
     !! Codes: HOLOSYM_INVALID_ORDER (M < 1, N < 0, G < 1, or G < N + 1, which is singular
     !! for every system), HOLOSYM_INVALID_DIMENSION.
-    subroutine scheme_init(self, order_m, order_n, gauss_points, n, m, status)
+    subroutine scheme_check(self, order_m, order_n, gauss_points, n, m, status)
         class(discrete_scheme), intent(inout) :: self
         integer, intent(in) :: order_m      !! M >= 1
         integer, intent(in) :: order_n      !! N >= 0
@@ -197,8 +199,6 @@ contains
         integer, intent(in) :: n            !! coordinates, >= 1
         integer, intent(in) :: m            !! constraints, 0 <= m < n
         type(holosym_status_t), intent(out), optional :: status !! outcome
-        real(wp), allocatable :: unused(:, :), mom_weights(:)
-        integer :: k
 
         if (order_m < 1 .or. order_n < 0 .or. gauss_points < 1) then
             call set_status(status, HOLOSYM_INVALID_ORDER, "need M >= 1, N >= 0, G >= 1; got M = " &
@@ -221,14 +221,36 @@ contains
                 // int_str(n) // ", m = " // int_str(m))
             return
         end if
-        ! A scheme may be set up again for other orders or sizes: start from scratch.
-        call release(self)
         self%order_m = order_m
         self%order_n = order_n
         self%gauss_points = gauss_points
         self%n = n
         self%m = m
         self%nx = unknown_count(order_m, order_n, n, m)
+        call set_status(status, HOLOSYM_SUCCESS, "")
+    end subroutine scheme_check
+
+    !> Set up nodes, weights and basis matrices for (M, N, G) and the sizes (n, m).
+    !! Codes: those of `check`.
+    subroutine scheme_init(self, order_m, order_n, gauss_points, n, m, status)
+        class(discrete_scheme), intent(inout) :: self
+        integer, intent(in) :: order_m      !! M >= 1
+        integer, intent(in) :: order_n      !! N >= 0
+        integer, intent(in) :: gauss_points !! G >= 1
+        integer, intent(in) :: n            !! coordinates, >= 1
+        integer, intent(in) :: m            !! constraints, 0 <= m < n
+        type(holosym_status_t), intent(out), optional :: status !! outcome
+        type(holosym_status_t) :: local
+        real(wp), allocatable :: unused(:, :), mom_weights(:)
+        integer :: k
+
+        ! A scheme may be set up again for other orders or sizes: start from scratch.
+        call release(self)
+        call self%check(order_m, order_n, gauss_points, n, m, local)
+        if (.not. local%ok()) then
+            call set_status(status, local%code, local%message)
+            return
+        end if
         self%counters = scheme_counters_t()
 
         allocate (self%disp_nodes(0:order_m), self%lobatto_weights(0:order_m))

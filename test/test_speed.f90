@@ -1,6 +1,8 @@
 !> Tests of the speed options of the integrator: every option, alone and combined, gives
 !! the same states as the plain path (full Newton, real128 LU, difference Hessians, fresh
-!! first guess each step) to 1e-30, and the work counters show the savings.
+!! first guess each step) to 1e-30, and the work counters show the savings. These are the
+!! options of the general scheme (all unknowns, dense Newton): `structured = .false.` keeps
+!! the models, which declare a diagonal mass matrix, on it (the reduced step: test_reduced).
 module test_speed
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp
@@ -127,6 +129,7 @@ contains
         q = q0
         p = p0
         factorizations = 0
+        integ%structured = .false.
         call integ%init(sys, order_m, order_n, gauss_points, status)
         if (.not. status%ok()) return
         call configure(integ, variant, label)
@@ -270,6 +273,7 @@ contains
         real(wp) :: q(3), p(3)
         sys = spherical_pendulum()
         call sys%initial_state(q, p)
+        integ%structured = .false.
         call integ%init(sys, 2, 1, 3, status)
         call configure(integ, 0, label)
         call integ%step(sys, q, p, run_h, info, status)
@@ -306,6 +310,7 @@ contains
         sys = spherical_pendulum()
         call sys%initial_state(q, p)
         q0 = q
+        integ%structured = .false.
         call integ%init(sys, 2, 1, 3, status)
         integ%linear_solver = "float80"
         call integ%step(sys, q, p, run_h, status=status)
@@ -336,6 +341,7 @@ contains
         sys = spherical_pendulum()
         call sys%initial_state(q, p)
         ! M = N + 2 is singular on the pendulum (its potential is rotationally symmetric).
+        integ%structured = .false.
         call integ%init(sys, 3, 1, 4, status)
         integ%linear_solver = "mixed"
         integ%newton%simplified = .true.
@@ -356,7 +362,9 @@ contains
         call sys%initial_state(qf, pf)
         qp = qf
         pp = pf
+        fast%structured = .false.
         call fast%init(sys, 3, 2, 4, status)
+        plain%structured = .false.
         call plain%init(sys, 3, 2, 4, status)
         call configure(fast, variant_count, label)
         call configure(plain, 0, label)
@@ -383,6 +391,7 @@ contains
         real(wp) :: q(3), p(3)
         sys = spherical_pendulum()
         call sys%initial_state(q, p)
+        integ%structured = .false.
         call integ%init(sys, 6, 5, 7, status)
         call configure(integ, variant, label)
         call integ%integrate(sys, q, p, 10.0_wp / large_steps, large_steps, status=status)
@@ -430,6 +439,7 @@ contains
         end if
         sys = spherical_pendulum()
         call sys%initial_state(q, p)
+        integ%structured = .false.
         call integ%init(sys, 6, 5, 7, status)
         call configure(integ, variant_count, label)
         integ%linear_solver = "real128"
@@ -453,11 +463,13 @@ contains
         integer, parameter :: gauss_points = 5
         sys = spherical_pendulum()
         call sys%initial_state(q, p)
+        plain%structured = .false.
         call plain%init(sys, 4, 3, gauss_points, status)
         call configure(plain, 0, label)
         call plain%integrate(sys, q, p, run_h, run_steps, status=status)
         call check_status_code(error, status%code, HOLOSYM_SUCCESS, "plain")
         call sys%initial_state(q, p)
+        linear%structured = .false.
         call linear%init(sys, 4, 3, gauss_points, status)
         call configure(linear, 9, label)
         call linear%integrate(sys, q, p, run_h, run_steps, status=status)
@@ -486,6 +498,7 @@ contains
         integer, parameter :: steps = 2000
         sys = spherical_pendulum()
         call sys%initial_state(q, p)
+        integ%structured = .false.
         call integ%init(sys, 2, 1, 3, status)
         worst_velocity = 0
         worst_position = 0

@@ -1,0 +1,824 @@
+!> The reduced step equations: the scheme of `holosym_scheme` with the momenta eliminated,
+!! for H = p^T M^-1 p / 2 + U(q) with a constant diagonal mass matrix M.
+!!
+!! The momentum equations R_p,j are then linear in the momentum nodes p_j: with
+!! E = (C^T W C)^-1 C^T W A ((N+1) x (M+1), constant for (M, N, G)),
+!!     p_j = (1/h) M sum_k E(j, k) z_k,        z_k = q_k - q_a,
+!! and substituting them into D_i = dS~/dq_i gives, with S = A^T W C E,
+!!     D_i = (1/h) M sum_k S(i, k) z_k - h sum_g w_g B(g, i) grad U(q~(tau_g))
+!!           - wl_i Phi(q_i)^T mu_i,                         mu_i = h lambda_i.
+!! (S 1 = 0 and E 1 = 0: the increments z_k carry no cancellation of q_a.)
+!! Unknowns z_1..z_M and mu_0..mu_M, M n + (M + 1) m of them; equations
+!! p_a + D_0 = 0, D_i = 0 (i = 1..M-1), phi(q_i) = 0 (i = 1..M) and
+!! Phi(q_M) M^-1 D_M = 0 (the hidden constraint at p_b = D_M). The step returns
+!! q_b - q_a = z_M and p_b - p_a = -h sum_g w_g grad U(q~(tau_g)) - sum_i wl_i Phi_i^T mu_i.
+!! Their order in the unknown vector is the layout's (`holosym_reduced_layout`).
+!!
+!! The residual is evaluated in working precision or, for the first Newton iterations and
+!! the difference Jacobian, with its sums in real64 (`residual_lowered`); the user's
+!! procedures always see working-precision arguments. The Newton matrix is formed by
+!! differences of the real64 residual, one residual per group of columns that share no
+!! row (`holosym_reduced_layout`), so no second derivatives are needed and a banded
+!! system costs a number of residuals independent of its size.
+module holosym_reduced_scheme
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+    use holosym_kinds, only: wp, dp
+    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE
+    use holosym_quadrature, only: gauss_legendre, gauss_lobatto
+    use holosym_lagrange, only: lagrange_values, lagrange_matrices
+    use holosym_linalg, only: lu_factor, lu_solve
+    use holosym_problem, only: constrained_hamiltonian
+    use holosym_reduced_layout, only: reduced_layout_t
+    use holosym_reduced_kernels_wp, only: tables_wp => reduced_tables, &
+        evaluation_wp => reduced_evaluation, allocate_evaluation_wp => allocate_evaluation, &
+        gather_wp => gather_unknowns, positions_wp => gauss_positions, &
+        forces_wp => multiplier_forces, sums_wp => node_sums, rows_wp => momentum_rows
+    use holosym_reduced_kernels_dp, only: tables_dp => reduced_tables, &
+        evaluation_dp => reduced_evaluation, allocate_evaluation_dp => allocate_evaluation, &
+        gather_dp => gather_unknowns, positions_dp => gauss_positions, &
+        forces_dp => multiplier_forces, sums_dp => node_sums, rows_dp => momentum_rows
+    implicit none
+    private
+
+    public :: reduced_scheme_t, reduced_structure
+
+    !> Relative step of the forward differences of second derivatives: sqrt(epsilon), whose
+    !! error (about sqrt(epsilon) relative) is far below the real64 factors' round-off.
+    real(wp), parameter :: difference_step = sqrt(epsilon(1.0_wp))
+
+    !> The reduced equations for one (M, N, G) and one system, with their workspace.
+    type :: reduced_scheme_t
+        integer :: order_m = 0, order_n = 0, gauss_points = 0
+        integer :: n = 0, m = 0, nx = 0
+        !> Where unknowns and equations live, and the Newton matrix's pattern.
+        type(reduced_layout_t) :: layout
+        real(wp), allocatable :: disp_nodes(:)  !! d_0..d_M (Lobatto)
+        real(wp), allocatable :: mom_nodes(:)   !! c_0..c_N
+        real(wp), allocatable :: e(:, :)        !! E(j, k), (0:N, 1:M)
+        !> rho_i(1 + d_k): extrapolation of the displacement polynomial to the next step.
+        real(wp), allocatable :: extrap(:, :)   !! (0:M node k, 0:M basis i)
+        real(wp), allocatable :: mass(:)        !! diagonal of M
+        type(tables_wp) :: tab
+        type(tables_dp) :: low_tab
+        !> The last working-precision evaluation (at `x_eval`) and the lowered one.
+        type(evaluation_wp) :: ev
+        type(evaluation_dp) :: low
+        real(wp), allocatable :: x_eval(:)
+        logical :: have_eval = .false.
+        ! Step context.
+        class(constrained_hamiltonian), pointer :: sys => null()
+        real(wp), allocatable :: qa(:), pa(:), mass_over_h(:), inv_mass(:)
+        real(dp), allocatable :: low_qa(:), low_mass_over_h(:), low_inv_mass(:)
+        real(wp) :: h = 0
+        ! Workspace of the user calls.
+        real(wp), allocatable :: q_work(:), p_zero(:), g_work(:), phi_work(:), pv_work(:)
+        !> The Newton matrix and d(p_b - p_a)/dx, values in the layout's patterns.
+        real(dp), allocatable :: jac_values(:), dp_values(:)
+        integer, allocatable :: position(:)   ! column -> entry of the open row (nx)
+        real(dp), allocatable :: x_low(:), f_base(:)
+        !> Second derivatives: U'' at the Gauss points and L_i at the nodes on the coupling
+        !! pattern, d(Phi v)/dq on Phi's pattern (real64).
+        real(dp), allocatable :: hu(:, :), lv(:, :), kv(:)
+        !> U is linear in q (an empty Hessian pattern declared): no U'' at all.
+        logical :: linear_potential = .false.
+        ! Workspace of the second derivatives.
+        real(wp), allocatable :: q_shift(:), steps(:), t_base(:), t_shift(:), mu_work(:)
+        real(wp), allocatable :: pv_shift(:)
+        real(wp), allocatable :: hqq(:, :), hqp(:, :), hpp(:, :), phi_hess(:, :, :)
+        !> User calls of the evaluations (gradients of U, constraint values, Phi values).
+        integer :: residuals = 0, lowered_residuals = 0, jacobians = 0, gradients = 0
+    contains
+        procedure :: init => reduced_init
+        procedure :: set_step => reduced_set_step
+        procedure :: residual => reduced_residual
+        procedure :: residual_lowered => reduced_residual_lowered
+        procedure :: jacobian => reduced_jacobian
+        procedure :: increments => reduced_increments
+        procedure :: linear_dp_change => reduced_linear_dp_change
+        procedure :: dense => reduced_dense
+        procedure :: multipliers => reduced_multipliers
+        procedure :: extrapolated_guess => reduced_extrapolated_guess
+    end type reduced_scheme_t
+
+contains
+
+    !> Whether a system declares the structure the reduced step needs (a constant diagonal
+    !! mass matrix), and the masses.
+    logical function reduced_structure(sys, mass)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(out) :: mass(:)                  !! diagonal of M (n)
+        reduced_structure = sys%diagonal_mass(mass)
+    end function reduced_structure
+
+    !> Set up the reduced scheme for (M, N, G) and the system's sizes, mass matrix and
+    !! sparsity. Codes: HOLOSYM_INVALID_ORDER (G < N + 1), HOLOSYM_INVALID_ARGUMENT (no mass
+    !! matrix declared, a non-positive or non-finite mass, a pattern out of range).
+    subroutine reduced_init(self, sys, order_m, order_n, gauss_points, status)
+        class(reduced_scheme_t), intent(out) :: self
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        integer, intent(in) :: order_m, order_n, gauss_points !! M >= 1, N >= 0, G >= N + 1
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer, allocatable :: phi_rows(:), phi_cols(:), hess_rows(:), hess_cols(:)
+        integer :: n, m
+
+        n = sys%n
+        m = sys%m
+        if (allocated(self%mass)) deallocate (self%mass)
+        allocate (self%mass(n))
+        if (.not. reduced_structure(sys, self%mass)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "the system declares no " // &
+                "diagonal mass matrix (diagonal_mass): the reduced step does not apply")
+            return
+        end if
+        if (.not. all(self%mass > 0 .and. is_finite(self%mass))) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "diagonal_mass returned a " // &
+                "mass that is not positive and finite")
+            return
+        end if
+        if (gauss_points < order_n + 1 .or. order_m < 1 .or. order_n < 0) then
+            call set_status(status, HOLOSYM_INVALID_ORDER, "the reduced step needs M >= 1, " // &
+                "N >= 0 and G >= N + 1")
+            return
+        end if
+        call sys%constraint_sparsity(phi_rows, phi_cols)
+        call sys%potential_sparsity(hess_rows, hess_cols)
+        self%linear_potential = size(hess_rows) == 0
+        call self%layout%build(order_m, n, m, phi_rows, phi_cols, hess_rows, hess_cols, status)
+        if (.not. status%ok()) return
+        self%order_m = order_m
+        self%order_n = order_n
+        self%gauss_points = gauss_points
+        self%n = n
+        self%m = m
+        self%nx = self%layout%nx
+        call build_tables(self)
+        call allocate_workspace(self)
+        call set_status(status, HOLOSYM_SUCCESS, "")
+    end subroutine reduced_init
+
+    !> E, S and the tables of the sums, in working precision and rounded to real64.
+    subroutine build_tables(self)
+        class(reduced_scheme_t), intent(inout) :: self
+        integer :: mm, nn, gg, k, info
+        real(wp), allocatable :: lobatto_w(:), mom_w(:), gauss_t(:), gauss_w(:)
+        real(wp), allocatable :: b(:, :), a(:, :), c(:, :), unused(:, :)
+        real(wp), allocatable :: ctwc(:, :), ctwa(:, :), s(:, :)
+        integer, allocatable :: pivots(:)
+        mm = self%order_m
+        nn = self%order_n
+        gg = self%gauss_points
+        allocate (self%disp_nodes(0:mm), lobatto_w(0:mm), self%mom_nodes(0:nn))
+        call gauss_lobatto(self%disp_nodes, lobatto_w)
+        if (nn == 0) then
+            self%mom_nodes(0) = 0.5_wp
+        else
+            allocate (mom_w(0:nn))
+            call gauss_lobatto(self%mom_nodes, mom_w)
+        end if
+        allocate (gauss_t(gg), gauss_w(gg))
+        call gauss_legendre(gauss_t, gauss_w)
+        allocate (b(gg, 0:mm), a(gg, 0:mm), c(gg, 0:nn), unused(gg, 0:nn))
+        call lagrange_matrices(self%disp_nodes, gauss_t, b, a)
+        call lagrange_matrices(self%mom_nodes, gauss_t, c, unused)
+        ! E = (C^T W C)^-1 C^T W A and S = A^T W C E.
+        allocate (ctwc(0:nn, 0:nn), ctwa(0:nn, 0:mm), pivots(nn + 1))
+        do k = 0, nn
+            ctwc(:, k) = matmul(transpose(c), gauss_w * c(:, k))
+        end do
+        do k = 0, mm
+            ctwa(:, k) = matmul(transpose(c), gauss_w * a(:, k))
+        end do
+        call lu_factor(ctwc, pivots, info)
+        call lu_solve(ctwc, pivots, ctwa)   ! now E, (0:N, 0:M)
+        allocate (self%e(0:nn, 1:mm))
+        self%e = ctwa(:, 1:mm)
+        allocate (s(0:mm, 0:mm))
+        do k = 0, mm
+            s(:, k) = matmul(transpose(a), gauss_w * matmul(c, ctwa(:, k)))
+        end do
+        associate (t => self%tab)
+            allocate (t%bt(mm, gg), t%st(mm, 0:mm), t%wb(gg, 0:mm), t%w(gg), t%wl(0:mm))
+            t%bt = transpose(b(:, 1:mm))
+            t%st = transpose(s(:, 1:mm))
+            do k = 0, mm
+                t%wb(:, k) = gauss_w * b(:, k)
+            end do
+            t%w = gauss_w
+            t%wl = lobatto_w
+        end associate
+        associate (t => self%low_tab)
+            allocate (t%bt(mm, gg), t%st(mm, 0:mm), t%wb(gg, 0:mm), t%w(gg), t%wl(0:mm))
+            t%bt = real(self%tab%bt, dp)
+            t%st = real(self%tab%st, dp)
+            t%wb = real(self%tab%wb, dp)
+            t%w = real(self%tab%w, dp)
+            t%wl = real(self%tab%wl, dp)
+        end associate
+        allocate (self%extrap(0:mm, 0:mm))
+        do k = 0, mm
+            self%extrap(k, :) = lagrange_values(self%disp_nodes, 1 + self%disp_nodes(k))
+        end do
+    end subroutine build_tables
+
+    subroutine allocate_workspace(self)
+        class(reduced_scheme_t), intent(inout) :: self
+        integer :: n, m, nnz
+        n = self%n
+        m = self%m
+        nnz = size(self%layout%phi_rows)
+        call allocate_evaluation_wp(self%ev, n, m, self%order_m, self%gauss_points, nnz)
+        call allocate_evaluation_dp(self%low, n, m, self%order_m, self%gauss_points, nnz)
+        allocate (self%x_eval(self%nx), self%qa(n), self%pa(n), self%mass_over_h(n), &
+                  self%inv_mass(n), self%low_qa(n), self%low_mass_over_h(n), &
+                  self%low_inv_mass(n), self%q_work(n), self%p_zero(n), self%g_work(n), &
+                  self%phi_work(m), self%pv_work(nnz))
+        self%p_zero = 0
+        self%inv_mass = 1 / self%mass
+        self%low_inv_mass = real(self%inv_mass, dp)
+        allocate (self%jac_values(size(self%layout%jac_col)), &
+                  self%dp_values(size(self%layout%dp_col)), self%position(self%nx))
+        self%position = 0
+        allocate (self%x_low(self%nx), self%f_base(self%nx))
+        allocate (self%hu(size(self%layout%near), self%gauss_points), &
+                  self%lv(size(self%layout%near), self%order_m), self%kv(nnz))
+        self%hu = 0
+        self%lv = 0
+        self%kv = 0
+        allocate (self%q_shift(n), self%steps(n), self%t_base(n), self%t_shift(n), &
+                  self%mu_work(m), self%pv_shift(nnz))
+        if (.not. self%layout%sparse) allocate (self%hqq(n, n), self%hqp(n, n), &
+            self%hpp(n, n), self%phi_hess(n, n, m))
+        self%have_eval = .false.
+    end subroutine allocate_workspace
+
+    !> Bind the system, the start state and h for the next solve. Phi at q_a is evaluated
+    !! here, once per step. Code HOLOSYM_NONFINITE_VALUE.
+    subroutine reduced_set_step(self, sys, qa, pa, h, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(in) :: qa(:), pa(:) !! start state
+        real(wp), intent(in) :: h            !! step size
+        type(holosym_status_t), intent(out) :: status !! outcome
+        self%sys => sys
+        self%qa = qa
+        self%pa = pa
+        self%h = h
+        self%mass_over_h = self%mass / h
+        self%low_qa = real(qa, dp)
+        self%low_mass_over_h = real(self%mass_over_h, dp)
+        self%have_eval = .false.
+        call node_values(self, qa, 0, self%ev%pv(:, 0), status)
+        self%low%pv(:, 0) = real(self%ev%pv(:, 0), dp)
+    end subroutine reduced_set_step
+
+    !> The values of Phi at node i (q given), into ev%pv(:, i), checked.
+    subroutine node_values(self, q, i, values, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:)
+        integer, intent(in) :: i
+        real(wp), intent(out) :: values(:)
+        type(holosym_status_t), intent(out) :: status
+        status%code = HOLOSYM_SUCCESS
+        if (self%m == 0) return
+        call self%sys%constraint_jacobian_values(q, self%layout%phi_rows, self%layout%phi_cols, &
+                                                 values)
+        if (.not. all(is_finite(values))) call set_status(status, &
+            HOLOSYM_NONFINITE_VALUE, "constraint_jacobian_values returned a non-finite " // &
+            "value at displacement node " // int_str(i))
+    end subroutine node_values
+
+    !> grad U at q (user's dh_dq with p = 0), checked.
+    subroutine potential_gradient(self, q, gradient, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: gradient(:)
+        type(holosym_status_t), intent(out) :: status
+        status%code = HOLOSYM_SUCCESS
+        call self%sys%dh_dq(q, self%p_zero, gradient)
+        self%gradients = self%gradients + 1
+        if (.not. all(is_finite(gradient))) call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+            "dh_dq returned a non-finite value at a Gauss point")
+    end subroutine potential_gradient
+
+    !> The residual in working precision at x; the evaluation is kept for `increments`.
+    subroutine reduced_residual(self, x, f, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: x(:)   !! unknowns (layout order)
+        real(wp), intent(out) :: f(:)  !! residual (layout order)
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        integer :: g, i
+        self%residuals = self%residuals + 1
+        self%have_eval = .false.
+        associate (ev => self%ev, lay => self%layout)
+            call gather_wp(lay%z_col, lay%mu_col, x, ev)
+            call positions_wp(self%tab, self%qa, ev)
+            do g = 1, self%gauss_points
+                call potential_gradient(self, ev%qg(:, g), ev%grad(:, g), status)
+                if (.not. status%ok()) return
+            end do
+            do i = 1, self%order_m
+                self%q_work = self%qa + ev%z(:, i)
+                call node_values(self, self%q_work, i, ev%pv(:, i), status)
+                if (.not. status%ok()) return
+                call constraint_values(self, self%q_work, status)
+                if (.not. status%ok()) return
+                f(lay%phi_row(:, i)) = self%phi_work
+            end do
+            call forces_wp(lay%phi_rows, lay%phi_cols, ev)
+            call sums_wp(self%tab, self%mass_over_h, self%inv_mass, self%h, lay%phi_rows, &
+                         lay%phi_cols, ev)
+            call rows_wp(lay%d_row, lay%v_row, self%pa, ev, f)
+        end associate
+        if (.not. all(is_finite(f))) then
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, "non-finite residual")
+            return
+        end if
+        self%x_eval = x
+        self%have_eval = .true.
+    end subroutine reduced_residual
+
+    !> phi at q (user's constraint into phi_work), checked.
+    subroutine constraint_values(self, q, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:)
+        type(holosym_status_t), intent(out) :: status
+        status%code = HOLOSYM_SUCCESS
+        if (self%m == 0) return
+        call self%sys%constraint(q, self%phi_work)
+        if (.not. all(is_finite(self%phi_work))) call set_status(status, &
+            HOLOSYM_NONFINITE_VALUE, "constraint returned a non-finite value")
+    end subroutine constraint_values
+
+    !> The residual with the sums in real64 at the real64 unknowns x (the user's procedures
+    !! see working-precision arguments); also p_b - p_a to real64 accuracy in low%dp.
+    subroutine reduced_residual_lowered(self, x, f, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(dp), intent(in) :: x(:)   !! unknowns (layout order), real64
+        real(dp), intent(out) :: f(:)  !! residual (layout order), real64
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        integer :: g, i
+        self%lowered_residuals = self%lowered_residuals + 1
+        associate (ev => self%low, lay => self%layout)
+            call gather_dp(lay%z_col, lay%mu_col, x, ev)
+            call positions_dp(self%low_tab, self%low_qa, ev)
+            do g = 1, self%gauss_points
+                ! q~ from the real64 sums; the exact start q_a would be lost in real64.
+                self%q_work = self%qa + real(ev%qg(:, g) - self%low_qa, wp)
+                call potential_gradient(self, self%q_work, self%g_work, status)
+                if (.not. status%ok()) return
+                ev%grad(:, g) = real(self%g_work, dp)
+            end do
+            do i = 1, self%order_m
+                self%q_work = self%qa + real(ev%z(:, i), wp)
+                call node_values(self, self%q_work, i, self%pv_work, status)
+                if (.not. status%ok()) return
+                ev%pv(:, i) = real(self%pv_work, dp)
+                call constraint_values(self, self%q_work, status)
+                if (.not. status%ok()) return
+                f(lay%phi_row(:, i)) = real(self%phi_work, dp)
+            end do
+            call forces_dp(lay%phi_rows, lay%phi_cols, ev)
+            call sums_dp(self%low_tab, self%low_mass_over_h, self%low_inv_mass, &
+                         real(self%h, dp), lay%phi_rows, lay%phi_cols, ev)
+            call rows_dp(lay%d_row, lay%v_row, real(self%pa, dp), ev, f)
+        end associate
+        if (.not. all(ieee_is_finite(f))) call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+            "non-finite residual")
+    end subroutine reduced_residual_lowered
+
+    !> The Newton matrix at x and d(p_b - p_a)/dx (real64, in the layout's patterns:
+    !! jac_values, dp_values), assembled from the second derivatives of U and phi at the
+    !! Gauss points and nodes of the real64 evaluation at x.
+    subroutine reduced_jacobian(self, x, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: x(:)   !! unknowns
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        self%jacobians = self%jacobians + 1
+        self%x_low = real(x, dp)
+        call self%residual_lowered(self%x_low, self%f_base, status)
+        if (.not. status%ok()) return
+        call second_derivatives(self, status)
+        if (.not. status%ok()) return
+        call assemble(self)
+    end subroutine reduced_jacobian
+
+    !> Second derivatives at the real64 evaluation's points, in real64: the Hessian of U at
+    !! each Gauss point and L_i = sum_l mu_il phi_l''(q_i) at nodes 1..M on the coupling
+    !! pattern (hu, lv), and K = d(Phi(q) v)/dq at q_M with v = M^-1 D_M on Phi's pattern
+    !! (kv). From the system's dense `hessian`/`constraint_hessian` when no sparsity is
+    !! declared, else by differences along the colours of the coupling graph.
+    subroutine second_derivatives(self, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        type(holosym_status_t), intent(out) :: status
+        integer :: g, i
+        status%code = HOLOSYM_SUCCESS
+        associate (low => self%low)
+            do g = 1, self%gauss_points
+                self%q_work = self%qa + real(low%qg(:, g) - self%low_qa, wp)
+                if (self%layout%sparse) then
+                    if (.not. self%linear_potential) &
+                        call potential_differences(self, self%q_work, self%hu(:, g), status)
+                else
+                    call dense_potential_hessian(self, self%q_work, self%hu(:, g))
+                end if
+                if (.not. status%ok()) return
+            end do
+            if (self%m == 0) return
+            do i = 1, self%order_m
+                self%q_work = self%qa + real(low%z(:, i), wp)
+                self%mu_work = real(low%mu(:, i), wp)
+                if (self%layout%sparse) then
+                    call curvature_differences(self, self%q_work, self%mu_work, self%lv(:, i), &
+                                               status)
+                else
+                    call dense_curvature(self, self%q_work, self%mu_work, self%lv(:, i))
+                end if
+                if (.not. status%ok()) return
+            end do
+            ! v = M^-1 D_M; K(l, c) = (phi_l'' v)_c = directional derivative of Phi(l, c).
+            self%g_work = real(low%d(:, self%order_m), wp) * self%inv_mass
+            self%q_work = self%qa + real(low%z(:, self%order_m), wp)
+            if (self%layout%sparse) then
+                call direction_differences(self, self%q_work, self%g_work, self%kv, status)
+            else
+                call dense_direction(self, self%q_work, self%g_work, self%kv)
+            end if
+        end associate
+        if (.not. all(ieee_is_finite(self%hu)) .or. .not. all(ieee_is_finite(self%lv)) .or. &
+            .not. all(ieee_is_finite(self%kv))) call set_status(status, &
+            HOLOSYM_NONFINITE_VALUE, "non-finite second derivatives of U or phi")
+    end subroutine second_derivatives
+
+    !> Hessian of U at q from the system's `hessian` (d2H/dq2), on the coupling pattern.
+    subroutine dense_potential_hessian(self, q, values)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:)
+        real(dp), intent(out) :: values(:)
+        integer :: c, a
+        call self%sys%hessian(q, self%p_zero, self%hqq, self%hqp, self%hpp)
+        do c = 1, self%n
+            do a = self%layout%near_start(c), self%layout%near_start(c + 1) - 1
+                values(a) = real(self%hqq(c, self%layout%near(a)), dp)
+            end do
+        end do
+    end subroutine dense_potential_hessian
+
+    !> sum_l mu_l phi_l''(q) from the system's `constraint_hessian`, on the coupling pattern.
+    subroutine dense_curvature(self, q, mu, values)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:), mu(:)
+        real(dp), intent(out) :: values(:)
+        integer :: c, a, l
+        real(wp) :: total
+        call self%sys%constraint_hessian(q, self%phi_hess)
+        do c = 1, self%n
+            do a = self%layout%near_start(c), self%layout%near_start(c + 1) - 1
+                total = 0
+                do l = 1, self%m
+                    total = total + mu(l) * self%phi_hess(c, self%layout%near(a), l)
+                end do
+                values(a) = real(total, dp)
+            end do
+        end do
+    end subroutine dense_curvature
+
+    !> d(Phi(q) v)/dq from `constraint_hessian`: K(l, c) = sum_k v_k phi_l''(k, c), on
+    !! Phi's pattern.
+    subroutine dense_direction(self, q, v, values)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:), v(:)
+        real(dp), intent(out) :: values(:)
+        integer :: e
+        call self%sys%constraint_hessian(q, self%phi_hess)
+        do e = 1, size(values)
+            values(e) = real(sum(v * self%phi_hess(:, self%layout%phi_cols(e), &
+                                                   self%layout%phi_rows(e))), dp)
+        end do
+    end subroutine dense_direction
+
+    !> Hessian of U at q by forward differences of grad U along the colours.
+    subroutine potential_differences(self, q, values, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:)
+        real(dp), intent(out) :: values(:)
+        type(holosym_status_t), intent(out) :: status
+        integer :: k
+        call potential_gradient(self, q, self%t_base, status)
+        if (.not. status%ok()) return
+        do k = 1, self%layout%colors
+            call shift_color(self, q, k)
+            call potential_gradient(self, self%q_shift, self%t_shift, status)
+            if (.not. status%ok()) return
+            call color_column(self, k, values)
+        end do
+    end subroutine potential_differences
+
+    !> sum_l mu_l phi_l''(q) by forward differences of Phi(q)^T mu along the colours.
+    subroutine curvature_differences(self, q, mu, values, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:), mu(:)
+        real(dp), intent(out) :: values(:)
+        type(holosym_status_t), intent(out) :: status
+        integer :: k
+        call node_values(self, q, 1, self%pv_work, status)
+        if (.not. status%ok()) return
+        call transpose_product(self, self%pv_work, mu, self%t_base)
+        do k = 1, self%layout%colors
+            call shift_color(self, q, k)
+            call node_values(self, self%q_shift, 1, self%pv_work, status)
+            if (.not. status%ok()) return
+            call transpose_product(self, self%pv_work, mu, self%t_shift)
+            call color_column(self, k, values)
+        end do
+    end subroutine curvature_differences
+
+    !> d(Phi(q) v)/dq on Phi's pattern: one forward difference of Phi along v.
+    subroutine direction_differences(self, q, v, values, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:), v(:)
+        real(dp), intent(out) :: values(:)
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: step
+        values = 0
+        status%code = HOLOSYM_SUCCESS
+        if (maxval(abs(v)) == 0) return
+        call node_values(self, q, 1, self%pv_work, status)
+        if (.not. status%ok()) return
+        self%pv_shift = self%pv_work
+        step = difference_step * max(1.0_wp, maxval(abs(q))) / maxval(abs(v))
+        self%q_shift = q + step * v
+        call node_values(self, self%q_shift, 1, self%pv_work, status)
+        if (.not. status%ok()) return
+        values = real((self%pv_work - self%pv_shift) / step, dp)
+    end subroutine direction_differences
+
+    !> q_shift = q moved along every coordinate of colour k (representable steps kept in
+    !! steps(c)).
+    subroutine shift_color(self, q, k)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:)
+        integer, intent(in) :: k
+        integer :: c
+        self%q_shift = q
+        do c = 1, self%n
+            if (self%layout%color(c) /= k) cycle
+            self%q_shift(c) = q(c) + difference_step * max(1.0_wp, abs(q(c)))
+            self%steps(c) = self%q_shift(c) - q(c)
+        end do
+    end subroutine shift_color
+
+    !> Column entries of colour k of a coupled second derivative from the difference
+    !! (t_shift - t_base) / step: entry (c, c') belongs to the coupled coordinate c' of c
+    !! that has colour k (at most one).
+    subroutine color_column(self, k, values)
+        class(reduced_scheme_t), intent(inout) :: self
+        integer, intent(in) :: k
+        real(dp), intent(inout) :: values(:)
+        integer :: c, a, col
+        do c = 1, self%n
+            do a = self%layout%near_start(c), self%layout%near_start(c + 1) - 1
+                col = self%layout%near(a)
+                if (self%layout%color(col) == k) values(a) = &
+                    real((self%t_shift(c) - self%t_base(c)) / self%steps(col), dp)
+            end do
+        end do
+    end subroutine color_column
+
+    !> t = Phi^T mu from values of Phi on its pattern.
+    pure subroutine transpose_product(self, values, mu, t)
+        class(reduced_scheme_t), intent(in) :: self
+        real(wp), intent(in) :: values(:), mu(:)
+        real(wp), intent(out) :: t(:)
+        integer :: e
+        t = 0
+        do e = 1, size(values)
+            t(self%layout%phi_cols(e)) = t(self%layout%phi_cols(e)) + &
+                values(e) * mu(self%layout%phi_rows(e))
+        end do
+    end subroutine transpose_product
+
+    !> The Newton matrix and d(p_b - p_a)/dx from the second derivatives (see the module
+    !! header for the equations), in real64.
+    subroutine assemble(self)
+        class(reduced_scheme_t), intent(inout) :: self
+        integer :: c, i, l, e, r, mm
+        mm = self%order_m
+        self%jac_values = 0
+        self%dp_values = 0
+        associate (lay => self%layout, low => self%low)
+            do c = 1, self%n
+                do i = 0, mm - 1
+                    r = lay%d_row(c, i)
+                    call open_row(lay%jac_start, lay%jac_col, r)
+                    call d_derivative(c, i, 1.0_dp, self%jac_values)
+                    call close_row(lay%jac_start, lay%jac_col, r)
+                end do
+                call open_row(lay%dp_start, lay%dp_col, c)
+                call dp_derivative(c)
+                call close_row(lay%dp_start, lay%dp_col, c)
+            end do
+            do l = 1, self%m
+                do i = 1, mm
+                    r = lay%phi_row(l, i)
+                    call open_row(lay%jac_start, lay%jac_col, r)
+                    do e = lay%row_entry_start(l), lay%row_entry_start(l + 1) - 1
+                        call put(self%jac_values, lay%z_col(lay%phi_cols(lay%row_entry(e)), i), &
+                                 low%pv(lay%row_entry(e), i))
+                    end do
+                    call close_row(lay%jac_start, lay%jac_col, r)
+                end do
+                ! (Phi(q_M) M^-1 D_M)_l: Phi's row times dD_M, plus d(Phi(q) v)/dq at q_M.
+                r = lay%v_row(l)
+                call open_row(lay%jac_start, lay%jac_col, r)
+                do e = lay%row_entry_start(l), lay%row_entry_start(l + 1) - 1
+                    c = lay%phi_cols(lay%row_entry(e))
+                    call d_derivative(c, mm, low%pv(lay%row_entry(e), mm) * &
+                                      self%low_inv_mass(c), self%jac_values)
+                    call put(self%jac_values, lay%z_col(c, mm), self%kv(lay%row_entry(e)))
+                end do
+                call close_row(lay%jac_start, lay%jac_col, r)
+            end do
+        end associate
+
+    contains
+
+        !> Map the columns of row r of a pattern to their entries.
+        subroutine open_row(start, col, r)
+            integer, intent(in) :: start(:), col(:), r
+            integer :: e
+            do e = start(r), start(r + 1) - 1
+                self%position(col(e)) = e
+            end do
+        end subroutine open_row
+
+        subroutine close_row(start, col, r)
+            integer, intent(in) :: start(:), col(:), r
+            self%position(col(start(r):start(r + 1) - 1)) = 0
+        end subroutine close_row
+
+        !> values(entry of column j in the open row) += value.
+        subroutine put(values, j, value)
+            real(dp), intent(inout) :: values(:)
+            integer, intent(in) :: j
+            real(dp), intent(in) :: value
+            values(self%position(j)) = values(self%position(j)) + value
+        end subroutine put
+
+        !> factor * dD_i[c]/dx into the open row:
+        !! dD_i[c]/dz_k[c'] = (m_c/h) S(i,k) [c = c'] - h sum_g w_g B_gi B_gk U''_g(c,c')
+        !!                    - wl_i L_i(c,c') [k = i];   dD_i[c]/dmu_i[l] = -wl_i Phi_i(l,c).
+        subroutine d_derivative(c, i, factor, values)
+            integer, intent(in) :: c, i
+            real(dp), intent(in) :: factor
+            real(dp), intent(inout) :: values(:)
+            integer :: a, k, g, cc, e
+            real(dp) :: value, h
+            h = real(self%h, dp)
+            associate (lay => self%layout, tab => self%low_tab)
+                do a = lay%near_start(c), lay%near_start(c + 1) - 1
+                    cc = lay%near(a)
+                    do k = 1, self%order_m
+                        value = 0
+                        if (cc == c) value = self%low_mass_over_h(c) * tab%st(k, i)
+                        if (.not. self%linear_potential) then
+                            do g = 1, self%gauss_points
+                                value = value - h * tab%wb(g, i) * tab%bt(k, g) * self%hu(a, g)
+                            end do
+                        end if
+                        if (k == i .and. self%m > 0) value = value - tab%wl(i) * self%lv(a, i)
+                        call put(values, lay%z_col(cc, k), factor * value)
+                    end do
+                end do
+                do e = lay%col_entry_start(c), lay%col_entry_start(c + 1) - 1
+                    call put(values, lay%mu_col(lay%phi_rows(lay%col_entry(e)), i), &
+                             -factor * tab%wl(i) * self%low%pv(lay%col_entry(e), i))
+                end do
+            end associate
+        end subroutine d_derivative
+
+        !> d(p_b - p_a)[c]/dx into the open row of the dp pattern:
+        !! d/dz_k[c'] = -h sum_g w_g B_gk U''_g(c,c') - wl_k L_k(c,c');
+        !! d/dmu_i[l] = -wl_i Phi_i(l,c).
+        subroutine dp_derivative(c)
+            integer, intent(in) :: c
+            integer :: a, k, g, cc, e, i
+            real(dp) :: value, h
+            h = real(self%h, dp)
+            associate (lay => self%layout, tab => self%low_tab)
+                do a = lay%near_start(c), lay%near_start(c + 1) - 1
+                    cc = lay%near(a)
+                    do k = 1, self%order_m
+                        value = 0
+                        if (.not. self%linear_potential) then
+                            do g = 1, self%gauss_points
+                                value = value - h * tab%w(g) * tab%bt(k, g) * self%hu(a, g)
+                            end do
+                        end if
+                        if (self%m > 0) value = value - tab%wl(k) * self%lv(a, k)
+                        call put(self%dp_values, lay%z_col(cc, k), value)
+                    end do
+                end do
+                do e = lay%col_entry_start(c), lay%col_entry_start(c + 1) - 1
+                    do i = 0, self%order_m
+                        call put(self%dp_values, lay%mu_col(lay%phi_rows(lay%col_entry(e)), i), &
+                                 -tab%wl(i) * self%low%pv(lay%col_entry(e), i))
+                    end do
+                end do
+            end associate
+        end subroutine dp_derivative
+
+    end subroutine assemble
+
+    !> Step results from the working-precision evaluation at x: q_b - q_a = z_M and
+    !! p_b - p_a. Requires `residual` to have been evaluated at exactly this x.
+    subroutine reduced_increments(self, dq, dpb)
+        class(reduced_scheme_t), intent(in) :: self
+        real(wp), intent(out) :: dq(:)   !! q_b - q_a
+        real(wp), intent(out) :: dpb(:)  !! p_b - p_a
+        dq = self%ev%z(:, self%order_m)
+        dpb = self%ev%dp
+    end subroutine reduced_increments
+
+    !> First-order change of p_b - p_a for a change `delta` of the unknowns from the
+    !! evaluation point, through the difference matrix d(p_b - p_a)/dx (real64).
+    subroutine reduced_linear_dp_change(self, delta, change)
+        class(reduced_scheme_t), intent(in) :: self
+        real(dp), intent(in) :: delta(:)   !! change of the unknowns
+        real(wp), intent(out) :: change(:) !! change of p_b - p_a (n)
+        integer :: r, e
+        real(dp) :: total
+        do r = 1, self%n
+            total = 0
+            do e = self%layout%dp_start(r), self%layout%dp_start(r + 1) - 1
+                total = total + self%dp_values(e) * delta(self%layout%dp_col(e))
+            end do
+            change(r) = real(total, wp)
+        end do
+    end subroutine reduced_linear_dp_change
+
+    !> q~(tau), p~(tau), lambda~(tau) of a solved step with unknowns x from (qa, pa), h.
+    !! p~ is the momentum polynomial: p_j = (1/h) M sum_k E(j, k) z_k.
+    subroutine reduced_dense(self, x, qa, h, tau, q, p, lambda)
+        class(reduced_scheme_t), intent(in) :: self
+        real(wp), intent(in) :: x(:), qa(:), h, tau
+        real(wp), intent(out) :: q(:), p(:), lambda(:)
+        real(wp) :: rho(0:self%order_m), chi(0:self%order_n), weight
+        integer :: i, j
+        rho = lagrange_values(self%disp_nodes, tau)
+        chi = lagrange_values(self%mom_nodes, tau)
+        q = qa
+        lambda = 0
+        p = 0
+        do i = 0, self%order_m
+            if (i >= 1) then
+                q = q + rho(i) * x(self%layout%z_col(:, i))
+                weight = 0
+                do j = 0, self%order_n
+                    weight = weight + chi(j) * self%e(j, i)
+                end do
+                p = p + weight * x(self%layout%z_col(:, i))
+            end if
+            if (self%m > 0) lambda = lambda + rho(i) * x(self%layout%mu_col(:, i)) / h
+        end do
+        p = self%mass * p / h
+    end subroutine reduced_dense
+
+    !> Multipliers lambda_k = mu_k / h at the displacement nodes, m x (0:M).
+    pure subroutine reduced_multipliers(self, x, h, lambda)
+        class(reduced_scheme_t), intent(in) :: self
+        real(wp), intent(in) :: x(:), h
+        real(wp), intent(out) :: lambda(:, 0:)
+        integer :: i
+        do i = 0, self%order_m
+            lambda(:, i) = x(self%layout%mu_col(:, i)) / h
+        end do
+    end subroutine reduced_multipliers
+
+    !> First guess from the previous step (unknowns x_prev from qa_prev with the same h):
+    !! its polynomials extrapolated to the new step's nodes.
+    pure subroutine reduced_extrapolated_guess(self, x_prev, qa_prev, qa, x)
+        class(reduced_scheme_t), intent(in) :: self
+        real(wp), intent(in) :: x_prev(:), qa_prev(:), qa(:)
+        real(wp), intent(out) :: x(:)
+        integer :: i, k
+        associate (lay => self%layout)
+            do k = 0, self%order_m
+                if (k >= 1) then
+                    x(lay%z_col(:, k)) = qa_prev - qa
+                    do i = 1, self%order_m
+                        x(lay%z_col(:, k)) = x(lay%z_col(:, k)) + self%extrap(k, i) * &
+                            x_prev(lay%z_col(:, i))
+                    end do
+                end if
+                if (self%m == 0) cycle
+                x(lay%mu_col(:, k)) = 0
+                do i = 0, self%order_m
+                    x(lay%mu_col(:, k)) = x(lay%mu_col(:, k)) + self%extrap(k, i) * &
+                        x_prev(lay%mu_col(:, i))
+                end do
+            end do
+        end associate
+    end subroutine reduced_extrapolated_guess
+
+end module holosym_reduced_scheme

@@ -1,0 +1,332 @@
+!> One step of the reduced scheme (`holosym_reduced_scheme`) by simplified Newton with
+!! mixed precision: a real64 Newton matrix (differences of the real64 residual; dense or
+!! banded LU, `holosym_factors`) kept across iterations and steps while it contracts well;
+!! first iterations on the real64 residual, then on the working-precision residual to the
+!! requested tolerance. The last correction is applied without a confirming residual when
+!! the contraction rate says the result is within the tolerance: the step results are
+!! then updated to first order through the difference matrix of p_b - p_a.
+module holosym_reduced_step
+    use holosym_kinds, only: wp, dp, wp_is_double
+    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+        HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, &
+        HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE
+    use holosym_problem, only: constrained_hamiltonian
+    use holosym_reduced_scheme, only: reduced_scheme_t
+    use holosym_factors, only: real64_factors_t
+    implicit none
+    private
+
+    public :: reduced_step_t, reduced_report_t
+
+    !> The real64 phase stops when its corrections reach this size relative to the state
+    !! (about 450 real64 epsilons: above its round-off, where it would stagnate) ...
+    real(wp), parameter :: lowered_tolerance = 1.0e-13_wp
+    !> ... or stop decreasing below this one.
+    real(wp), parameter :: lowered_floor = 1.0e-10_wp
+    !> Kept factors that contract worse than this per iteration are replaced.
+    real(wp), parameter :: contraction_limit = 0.1_wp
+    !> With `prefer_fresh`, kept factors are tried again after this many steps.
+    integer, parameter :: retry_kept_every = 8
+    !> At the end of the real64 phase, factors contracting worse than this are replaced
+    !! when the working-precision target is far (see `refresh_pays`).
+    real(wp), parameter :: fresh_rate = 1.0e-12_wp
+    !> Cost of forming and factoring the Newton matrix, in working-precision residuals.
+    real(wp), parameter :: jacobian_cost = 1
+    !> Safety factor on the error predicted from the contraction rate, which varies from one
+    !! iteration to the next.
+    real(wp), parameter :: rate_margin = 8
+    !> Growing corrections with fresh factors this many times in a row: diverged.
+    integer, parameter :: max_growth = 3
+
+    !> Outcomes of one Newton iteration (see `next_action`).
+    integer, parameter :: ACTION_ITERATE = 0, ACTION_CONVERGED = 1, ACTION_REFACTOR = 2, &
+        ACTION_DIVERGED = 3
+
+    !> Work of one step.
+    type :: reduced_report_t
+        integer :: iterations = 0            !! Newton iterations (residuals solved with)
+        integer :: residuals = 0             !! working-precision residuals
+        integer :: lowered_residuals = 0     !! real64 residuals (including the Jacobians')
+        integer :: factorizations = 0        !! Newton matrices formed and factored
+        real(wp) :: pivot_ratio = 0          !! of the factors in use
+    end type reduced_report_t
+
+    !> The reduced step with its kept factors and the previous step (for extrapolation).
+    type :: reduced_step_t
+        type(reduced_scheme_t) :: scheme
+        type(real64_factors_t) :: factors
+        real(wp) :: factors_h = 0
+        !> Kept factors proved too stale: form fresh ones at each step's first guess (tried
+        !! again every `retry_kept_every` steps).
+        logical :: prefer_fresh = .false.
+        integer :: fresh_streak = 0
+        real(wp), allocatable :: x(:), f(:), x_guess(:)
+        real(dp), allocatable :: x_low(:), delta(:)
+        ! The previous solved step.
+        logical :: have_last = .false.
+        real(wp), allocatable :: last_x(:), last_qa(:)
+        real(wp) :: last_h = 0
+    contains
+        procedure :: init => step_init
+        procedure :: solve => step_solve
+        procedure :: forget => step_forget
+    end type reduced_step_t
+
+contains
+
+    !> Set up for a system and (M, N, G); codes of `reduced_scheme_t%init`.
+    subroutine step_init(self, sys, order_m, order_n, gauss_points, status)
+        class(reduced_step_t), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        integer, intent(in) :: order_m, order_n, gauss_points
+        type(holosym_status_t), intent(out) :: status
+        integer :: nx
+        call self%scheme%init(sys, order_m, order_n, gauss_points, status)
+        if (.not. status%ok()) return
+        nx = self%scheme%nx
+        call self%factors%setup(nx, self%scheme%layout%kl, self%scheme%layout%ku)
+        if (allocated(self%x)) deallocate (self%x, self%f, self%x_guess, self%x_low, &
+                                           self%delta, self%last_x, self%last_qa)
+        allocate (self%x(nx), self%f(nx), self%x_guess(nx), self%x_low(nx), self%delta(nx), &
+                  self%last_x(nx), self%last_qa(sys%n))
+        call self%forget()
+    end subroutine step_init
+
+    !> Forget the kept factors, what earlier steps taught about them and the previous step:
+    !! the next steps then depend only on their own inputs.
+    subroutine step_forget(self)
+        class(reduced_step_t), intent(inout) :: self
+        self%factors%factored = .false.
+        self%factors_h = 0
+        self%prefer_fresh = .false.
+        self%fresh_streak = 0
+        self%have_last = .false.
+    end subroutine step_forget
+
+    !> Solve the step from (q, p) with size h: increments dq = q_b - q_a, dpb = p_b - p_a.
+    !! `tolerance` bounds the Newton error relative to the state's size (`scale`);
+    !! `extrapolate` starts from the previous step's polynomials when (q, p) continues it.
+    !! On failure the kept factors are dropped. Codes: HOLOSYM_SINGULAR_MATRIX,
+    !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE.
+    subroutine step_solve(self, sys, q, p, h, tolerance, stagnation, max_iterations, &
+                          continues, dq, dpb, report, status)
+        class(reduced_step_t), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        real(wp), intent(in) :: tolerance   !! Newton tolerance (relative)
+        real(wp), intent(in) :: stagnation  !! round-off floor of the corrections (relative)
+        integer, intent(in) :: max_iterations
+        logical, intent(in) :: continues    !! (q, p) is the previous step's end: extrapolate
+        real(wp), intent(out) :: dq(:), dpb(:)
+        type(reduced_report_t), intent(out) :: report
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: scale
+        integer :: residuals0, lowered0
+
+        residuals0 = self%scheme%residuals
+        lowered0 = self%scheme%lowered_residuals
+        call self%scheme%set_step(sys, q, p, h, status)
+        if (.not. status%ok()) return
+        scale = max(maxval(abs(q)), maxval(abs(p)))
+        if (scale <= 0) scale = 1
+        if (h /= self%factors_h) self%factors%factored = .false.
+        if (self%prefer_fresh) then
+            self%fresh_streak = self%fresh_streak + 1
+            if (mod(self%fresh_streak, retry_kept_every) /= 0) self%factors%factored = .false.
+        end if
+        if (continues .and. self%have_last .and. h == self%last_h) then
+            call self%scheme%extrapolated_guess(self%last_x, self%last_qa, q, self%x_guess)
+        else
+            self%x_guess = 0
+        end if
+        self%x = self%x_guess
+        call newton(status)
+        if (.not. status%ok() .and. status%code /= HOLOSYM_NONFINITE_VALUE) then
+            ! Kept factors may be stale, or the extrapolation poor: fresh factors from the
+            ! constant guess.
+            self%factors%factored = .false.
+            self%x = 0
+            call newton(status)
+        end if
+        report%residuals = self%scheme%residuals - residuals0
+        report%lowered_residuals = self%scheme%lowered_residuals - lowered0
+        report%pivot_ratio = real(self%factors%pivot_ratio, wp)
+        if (.not. status%ok()) then
+            self%factors%factored = .false.
+            self%have_last = .false.
+            return
+        end if
+        self%last_x = self%x
+        self%last_qa = q
+        self%last_h = h
+        self%have_last = .true.
+
+    contains
+
+        !> Simplified Newton from self%x; on success x is the solution and dq, dpb the
+        !! step's results.
+        subroutine newton(status)
+            type(holosym_status_t), intent(out) :: status
+            real(wp) :: correction, previous, target, floor, rate, last_rate
+            integer :: iter, growth, action
+            logical :: lowered, fresh, kept
+
+            lowered = .not. wp_is_double
+            previous = huge(1.0_wp)
+            growth = 0
+            fresh = .false.
+            rate = 1
+            last_rate = 0
+            kept = self%factors%factored
+            if (.not. self%factors%factored) then
+                call refactor(status)
+                if (.not. status%ok()) return
+                fresh = .true.
+            end if
+            do iter = 1, max_iterations
+                report%iterations = report%iterations + 1
+                if (lowered) then
+                    self%x_low = real(self%x, dp)
+                    call self%scheme%residual_lowered(self%x_low, self%delta, status)
+                else
+                    call self%scheme%residual(self%x, self%f, status)
+                    self%delta = real(self%f, dp)
+                end if
+                if (.not. status%ok()) return
+                call self%factors%solve(self%delta)
+                correction = maxval(abs(self%delta)) / scale
+                if (lowered) then
+                    target = lowered_tolerance
+                    floor = lowered_floor
+                else
+                    target = tolerance
+                    floor = stagnation
+                end if
+                action = next_action(correction, previous, last_rate, target, floor, fresh, &
+                                     growth)
+                select case (action)
+                case (ACTION_DIVERGED)
+                    call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton corrections " // &
+                        "grew " // int_str(growth) // " times in a row (last " // &
+                        real_str(correction) // ") at iteration " // int_str(iter))
+                    return
+                case (ACTION_REFACTOR)
+                    if (kept) self%prefer_fresh = .true.
+                    call refactor(status)
+                    if (.not. status%ok()) return
+                    fresh = .true.
+                    previous = huge(1.0_wp)
+                    last_rate = 0
+                    cycle
+                case (ACTION_CONVERGED)
+                    self%x = self%x - real(self%delta, wp)
+                    if (.not. lowered) then
+                        call self%scheme%increments(dq, dpb)
+                        call self%scheme%linear_dp_change(-self%delta, self%f(1:size(dpb)))
+                        dq = self%x(self%scheme%layout%z_col(:, self%scheme%order_m))
+                        dpb = dpb + self%f(1:size(dpb))
+                        return
+                    end if
+                    lowered = .false.
+                    if (previous < huge(1.0_wp)) rate = correction / previous
+                    if (refresh_pays(rate, correction, tolerance)) then
+                        call refactor(status)
+                        if (.not. status%ok()) return
+                        fresh = .true.
+                    end if
+                    previous = huge(1.0_wp)
+                    last_rate = 0
+                    cycle
+                end select
+                self%x = self%x - real(self%delta, wp)
+                if (previous < huge(1.0_wp)) last_rate = correction / previous
+                previous = correction
+                ! Factors formed at an earlier iterate are no longer fresh: a poor rate then
+                ! calls for new ones at the current iterate (full Newton).
+                fresh = .false.
+            end do
+            call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged " // &
+                "after " // int_str(max_iterations) // " iterations")
+        end subroutine newton
+
+        !> Form and factor the Newton matrix at self%x.
+        subroutine refactor(status)
+            type(holosym_status_t), intent(out) :: status
+            integer :: info
+            call self%scheme%jacobian(self%x, status)
+            if (.not. status%ok()) return
+            call self%factors%factor(self%scheme%layout%jac_start, self%scheme%layout%jac_col, &
+                                     self%scheme%jac_values, info)
+            report%factorizations = report%factorizations + 1
+            if (info /= 0) then
+                call set_status(status, HOLOSYM_SINGULAR_MATRIX, "reduced Newton matrix " // &
+                    "singular at pivot " // int_str(info) // " of " // int_str(self%scheme%nx))
+                return
+            end if
+            self%factors_h = h
+        end subroutine refactor
+
+    end subroutine step_solve
+
+    !> At the end of the real64 phase (last correction `correction`, contraction `rate`):
+    !! whether fresh factors here reach `tolerance` in fewer working-precision residuals,
+    !! counting the cost of forming them.
+    pure logical function refresh_pays(rate, correction, tolerance)
+        real(wp), intent(in) :: rate, correction, tolerance
+        real(dp) :: keep, renew
+        refresh_pays = .false.
+        if (correction <= tolerance .or. rate <= fresh_rate) return
+        if (rate >= 1) then
+            refresh_pays = .true.
+            return
+        end if
+        keep = log(real(tolerance / correction, dp)) / log(real(rate, dp))
+        renew = log(real(tolerance / correction, dp)) / log(real(fresh_rate, dp))
+        refresh_pays = ceiling(renew) + jacobian_cost < ceiling(keep)
+    end function refresh_pays
+
+    !> What to do after a Newton correction of relative size `correction` (`previous`: the
+    !! one before with the same factors, huge when none; `last_rate`: the contraction
+    !! before that, 0 when none): CONVERGED when it, or the error predicted from the
+    !! contraction rate theta, theta / (1 - theta) correction with theta the larger of the
+    !! last two rates (the rate of kept factors varies), is within `target` (the latter
+    !! with the margin `rate_margin`), or when
+    !! corrections stop decreasing below `floor` (round-off); REFACTOR when kept factors
+    !! contract worse than `contraction_limit`; DIVERGED after `max_growth` growing
+    !! corrections with fresh factors; else ITERATE.
+    integer function next_action(correction, previous, last_rate, target, floor, fresh, &
+                                 growth) result(action)
+        real(wp), intent(in) :: correction, previous, last_rate, target, floor
+        logical, intent(in) :: fresh   !! the factors were formed in this solve
+        integer, intent(inout) :: growth
+        real(wp) :: rate
+        action = ACTION_ITERATE
+        if (.not. is_finite(correction)) then
+            growth = max_growth
+            action = ACTION_DIVERGED
+            return
+        end if
+        if (correction <= target) then
+            action = ACTION_CONVERGED
+            return
+        end if
+        if (previous == huge(1.0_wp)) return
+        rate = correction / previous
+        if (max(rate, last_rate) < 1) then
+            if (max(rate, last_rate) / (1 - max(rate, last_rate)) * correction <= &
+                target / rate_margin) action = ACTION_CONVERGED
+        else if (correction <= floor) then
+            action = ACTION_CONVERGED
+        end if
+        if (action == ACTION_CONVERGED) return
+        if (rate > contraction_limit .and. .not. fresh) then
+            action = ACTION_REFACTOR
+        else if (rate >= 1) then
+            growth = growth + 1
+            if (growth >= max_growth) action = ACTION_DIVERGED
+        else
+            growth = 0
+        end if
+    end function next_action
+
+end module holosym_reduced_step
