@@ -45,13 +45,13 @@ module holosym_model_chain
 
 contains
 
-    !> A chain of `links` pendula; masses and lengths default to 1 (scalars or arrays of
-    !! size `links`), gravity to 1. The double pendulum of masses 1 and 2 and rods 1 and 0.7:
+    !> A chain of `links` pendula; masses and lengths default to 1 (arrays repeated
+    !! cyclically along the chain: one value for all links, or one per link), gravity to 1. The double pendulum of masses 1 and 2 and rods 1 and 0.7:
     !! `pendulum_chain(2, masses=[1.0_wp, 2.0_wp], lengths=[1.0_wp, 0.7_wp])`.
     pure function new_pendulum_chain(links, masses, lengths, gravity) result(sys)
         integer, intent(in) :: links                 !! K >= 1
-        real(wp), intent(in), optional :: masses(:)  !! m_k (size K, or 1 for all equal)
-        real(wp), intent(in), optional :: lengths(:) !! l_k (size K, or 1 for all equal)
+        real(wp), intent(in), optional :: masses(:)  !! m_k, repeated cyclically (not empty)
+        real(wp), intent(in), optional :: lengths(:) !! l_k, repeated cyclically (not empty)
         real(wp), intent(in), optional :: gravity    !! g
         type(pendulum_chain) :: sys
         sys%n = 2 * links
@@ -59,19 +59,22 @@ contains
         allocate (sys%masses(links), sys%lengths(links))
         sys%masses = 1
         sys%lengths = 1
-        if (present(masses)) sys%masses = spread_or_copy(masses, links)
-        if (present(lengths)) sys%lengths = spread_or_copy(lengths, links)
+        if (present(masses)) then
+            if (size(masses) > 0) sys%masses = spread_or_copy(masses, links)
+        end if
+        if (present(lengths)) then
+            if (size(lengths) > 0) sys%lengths = spread_or_copy(lengths, links)
+        end if
         if (present(gravity)) sys%gravity = gravity
     contains
         pure function spread_or_copy(values, count) result(out)
             real(wp), intent(in) :: values(:)
             integer, intent(in) :: count
             real(wp) :: out(count)
-            if (size(values) == 1) then
-                out = values(1)
-            else
-                out = values(1:count)
-            end if
+            integer :: k
+            do k = 1, count
+                out(k) = values(mod(k - 1, size(values)) + 1)
+            end do
         end function spread_or_copy
     end function new_pendulum_chain
 

@@ -14,6 +14,7 @@ program holosym_tests
     use test_rattle, only: rattle_tests
     use test_extremes, only: extremes_tests
     use test_bench, only: bench_tests
+    use test_reduced, only: reduced_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed, skipped
@@ -37,6 +38,7 @@ program holosym_tests
     call run_suite("rattle", rattle_tests(), filter, passed, failed, skipped)
     call run_suite("extremes", extremes_tests(), filter, passed, failed, skipped)
     call run_suite("bench", bench_tests(), filter, passed, failed, skipped)
+    call run_suite("reduced", reduced_tests(), filter, passed, failed, skipped)
     if (skipped > 0) then
         write (summary, '(i0, " passed, ", i0, " failed, ", i0, " skipped")') passed, failed, &
             skipped

@@ -1,0 +1,342 @@
+!> Tests of the reduced step (momenta eliminated, banded Newton matrix): it agrees with the
+!! general scheme to round-off on every model, its band does not grow with a chain's length,
+!! it rejects bad structure declarations, and it keeps the state on failures.
+module test_reduced
+    use holosym_kinds, only: wp
+    use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
+        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE
+    use holosym_problem, only: constrained_hamiltonian
+    use holosym_integrator, only: constrained_integrator, step_info_t
+    use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
+    use holosym_model_chain, only: pendulum_chain
+    use holosym_reduced_step, only: reduced_step_t
+    use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
+    implicit none
+    private
+    public :: reduced_tests
+
+    real(wp), parameter :: eps = epsilon(1.0_wp)
+    !> Agreement of the two paths after tens of steps: round-off (1e-30 in real128).
+    real(wp), parameter :: agreement = max(1.0e-30_wp, 1.0e4_wp * eps)
+
+    !> A chain that declares its mass matrix but not its sparsity: the reduced step's dense
+    !! second derivatives (the system's Hessians) instead of differences along colours.
+    type, extends(pendulum_chain) :: dense_chain
+    contains
+        procedure :: constraint_sparsity => dense_chain_sparsity
+        procedure :: constraint_jacobian_values => dense_chain_values
+        procedure :: potential_sparsity => dense_chain_potential
+    end type dense_chain
+
+    !> A pendulum whose declared masses are wrong in sign.
+    type, extends(spherical_pendulum) :: negative_mass_pendulum
+    contains
+        procedure :: diagonal_mass => negative_mass
+    end type negative_mass_pendulum
+
+    !> A chain whose declared Phi pattern points outside the matrix.
+    type, extends(pendulum_chain) :: bad_pattern_chain
+    contains
+        procedure :: constraint_sparsity => bad_pattern
+    end type bad_pattern_chain
+
+    !> A spherical pendulum whose potential gradient turns NaN beyond z = threshold.
+    type, extends(spherical_pendulum) :: nan_pendulum
+        real(wp) :: threshold = huge(1.0_wp)
+    contains
+        procedure :: dh_dq => nan_dh_dq
+    end type nan_pendulum
+
+contains
+
+    !> The tests of this suite.
+    function reduced_tests() result(tests)
+        type(test_case_t), allocatable :: tests(:)
+        tests = [ &
+            new_test("agrees_with_general_scheme", agrees_with_general), &
+            new_test("dense_output_and_multipliers_agree", dense_output_agrees), &
+            new_test("sparse_and_dense_derivatives_agree", sparse_equals_dense), &
+            new_test("band_independent_of_chain_length", band_independent), &
+            new_test("rejects_bad_declarations", bad_declarations), &
+            new_test("failure_keeps_state", failure_keeps_state), &
+            new_test("nearly_dependent_constraints_fall_back", nearly_dependent) &
+        ]
+    end function reduced_tests
+
+    !> Run `steps` steps with the reduced step and with the general scheme from (q0, p0).
+    subroutine both_paths(error, sys, q0, p0, mm, nn, gg, h, steps, label)
+        type(test_error_t), allocatable, intent(inout) :: error
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q0(:), p0(:), h
+        integer, intent(in) :: mm, nn, gg, steps
+        character(len=*), intent(in) :: label
+        type(constrained_integrator) :: reduced, general
+        type(holosym_status_t) :: status
+        real(wp) :: qr(size(q0)), pr(size(q0)), qg(size(q0)), pg(size(q0)), scale
+        general%structured = .false.
+        call reduced%init(sys, mm, nn, gg, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, label // ": init")
+        call general%init(sys, mm, nn, gg, status)
+        if (allocated(error)) return
+        qr = q0
+        pr = p0
+        qg = q0
+        pg = p0
+        call reduced%integrate(sys, qr, pr, h, steps, status=status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, label // ": reduced")
+        call general%integrate(sys, qg, pg, h, steps, status=status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, label // ": general")
+        if (allocated(error)) return
+        scale = max(1.0_wp, maxval(abs(qg)), maxval(abs(pg)))
+        call check(error, maxval(abs(qr - qg)) <= agreement * scale .and. &
+            maxval(abs(pr - pg)) <= agreement * scale, label // ": paths differ by " // &
+            real_str(max(maxval(abs(qr - qg)), maxval(abs(pr - pg)))))
+        call check(error, reduced%stats%steps == steps .and. &
+            reduced%stats%residual_evaluations > 0, label // ": reduced step counted")
+    end subroutine both_paths
+
+    subroutine agrees_with_general(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum) :: sphere
+        type(spring_linkage) :: linkage
+        type(planar_pendulum) :: planar
+        type(pendulum_chain) :: chain
+        real(wp) :: q3(3), p3(3), q6(6), p6(6), q2(2), p2(2), q8(8), p8(8)
+        sphere = spherical_pendulum()
+        call sphere%initial_state(q3, p3)
+        call both_paths(error, sphere, q3, p3, 2, 1, 3, 0.125_wp, 24, "sphere (2,1,3)")
+        call both_paths(error, sphere, q3, p3, 4, 3, 5, 0.25_wp, 12, "sphere (4,3,5)")
+        call both_paths(error, sphere, q3, p3, 1, 0, 2, 0.125_wp, 24, "sphere (1,0,2)")
+        linkage = spring_linkage()
+        call linkage%initial_state(q6, p6)
+        call both_paths(error, linkage, q6, p6, 3, 2, 4, 0.25_wp, 12, "linkage (3,2,4)")
+        planar = planar_pendulum()
+        call planar%initial_state(q2, p2)
+        call both_paths(error, planar, q2, p2, 8, 7, 9, 0.125_wp, 12, "planar (8,7,9)")
+        chain = pendulum_chain(4, masses=[1.0_wp, 2.0_wp, 1.5_wp, 1.0_wp], &
+                               lengths=[1.0_wp, 0.7_wp, 0.5_wp, 0.8_wp])
+        call chain%state_from_angles([0.3_wp, 0.5_wp, -0.2_wp, 0.1_wp], &
+                                     [0.0_wp, 0.8_wp, 0.1_wp, -0.3_wp], q8, p8)
+        call both_paths(error, chain, q8, p8, 4, 3, 5, 0.01_wp, 20, "chain of 4 (4,3,5)")
+        call both_paths(error, chain, q8, p8, 2, 1, 3, 0.05_wp, 20, "chain of 4 (2,1,3)")
+    end subroutine agrees_with_general
+
+    !> Dense output (q~, p~, lambda~ inside the last step) and the multipliers at the nodes
+    !! are the same polynomials on both paths.
+    subroutine dense_output_agrees(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spring_linkage) :: sys
+        type(constrained_integrator) :: reduced, general
+        type(step_info_t) :: info_r, info_g
+        type(holosym_status_t) :: status
+        real(wp) :: qr(6), pr(6), qg(6), pg(6), dq(6, 2), dp(6, 2), dl(3, 2)
+        integer :: k
+        sys = spring_linkage()
+        call sys%initial_state(qr, pr)
+        qg = qr
+        pg = pr
+        general%structured = .false.
+        call reduced%init(sys, 4, 3, 5, status)
+        call general%init(sys, 4, 3, 5, status)
+        do k = 1, 3
+            call reduced%step(sys, qr, pr, 0.25_wp, info_r, status)
+            call general%step(sys, qg, pg, 0.25_wp, info_g, status)
+        end do
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "steps")
+        if (allocated(error)) return
+        call reduced%dense_output(0.3_wp, dq(:, 1), dp(:, 1), dl(:, 1), status)
+        call general%dense_output(0.3_wp, dq(:, 2), dp(:, 2), dl(:, 2), status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "dense output")
+        call check(error, maxval(abs(dq(:, 1) - dq(:, 2))) <= agreement .and. &
+            maxval(abs(dp(:, 1) - dp(:, 2))) <= agreement .and. &
+            maxval(abs(dl(:, 1) - dl(:, 2))) <= agreement * 100, &
+            "dense output differs: q " // real_str(maxval(abs(dq(:, 1) - dq(:, 2)))) // &
+            ", p " // real_str(maxval(abs(dp(:, 1) - dp(:, 2)))) // ", lambda " // &
+            real_str(maxval(abs(dl(:, 1) - dl(:, 2)))))
+        call check(error, maxval(abs(info_r%lambda - info_g%lambda)) <= agreement * 100, &
+            "multipliers at the nodes differ by " // &
+            real_str(maxval(abs(info_r%lambda - info_g%lambda))))
+        call check(error, info_r%constraint_residual <= agreement .and. &
+            info_r%velocity_residual <= agreement, "step diagnostics at round-off")
+    end subroutine dense_output_agrees
+
+    !> The chain with its sparsity declared (differences along colours) and without (the
+    !! system's dense Hessians) gives the same states.
+    subroutine sparse_equals_dense(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(pendulum_chain) :: sparse
+        type(dense_chain) :: dense
+        type(constrained_integrator) :: a, b
+        type(holosym_status_t) :: status
+        real(wp) :: qa(10), pa(10), qb(10), pb(10)
+        sparse = pendulum_chain(5, masses=[1.0_wp, 2.0_wp])
+        dense%pendulum_chain = sparse
+        call sparse%state_from_angles([0.2_wp, 0.4_wp, 0.6_wp, 0.8_wp, 1.0_wp], &
+                                      [0.0_wp, 0.1_wp, 0.2_wp, 0.3_wp, 0.4_wp], qa, pa)
+        qb = qa
+        pb = pa
+        call a%init(sparse, 3, 2, 4, status)
+        call b%init(dense, 3, 2, 4, status)
+        call a%integrate(sparse, qa, pa, 0.02_wp, 15, status=status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "sparse")
+        call b%integrate(dense, qb, pb, 0.02_wp, 15, status=status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "dense")
+        if (allocated(error)) return
+        call check(error, maxval(abs(qa - qb)) <= agreement .and. &
+            maxval(abs(pa - pb)) <= agreement, "sparse and dense differ by " // &
+            real_str(max(maxval(abs(qa - qb)), maxval(abs(pa - pb)))))
+    end subroutine sparse_equals_dense
+
+    !> The chain's Newton matrix has the same band for 8, 32 and 128 links, and is stored
+    !! banded (memory linear in the length).
+    subroutine band_independent(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(reduced_step_t) :: step
+        type(holosym_status_t) :: status
+        integer :: k, links(3) = [8, 32, 128], kl(3), ku(3)
+        do k = 1, 3
+            call step%init(pendulum_chain(links(k)), 4, 3, 5, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "init")
+            if (allocated(error)) return
+            kl(k) = step%factors%kl
+            ku(k) = step%factors%ku
+            call check(error, step%scheme%nx == 13 * links(k), "unknowns 13 per link")
+            if (links(k) >= 32) call check(error, step%factors%banded .and. &
+                size(step%factors%a) == (2 * kl(k) + ku(k) + 1) * step%scheme%nx, &
+                "banded storage for " // int_str(links(k)) // " links")
+        end do
+        call check(error, all(kl == kl(1)) .and. all(ku == ku(1)) .and. kl(1) < 52, &
+            "band grows with the chain: kl = " // int_str(kl(1)) // ", " // int_str(kl(3)))
+    end subroutine band_independent
+
+    subroutine bad_declarations(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(negative_mass_pendulum) :: negative
+        type(bad_pattern_chain) :: bad
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        negative%spherical_pendulum = spherical_pendulum()
+        call integ%init(negative, 2, 1, 3, status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "negative mass")
+        call check(error, index(status%message, "mass") > 0, "message: " // status%message)
+        bad%pendulum_chain = pendulum_chain(3)
+        call integ%init(bad, 2, 1, 3, status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "bad pattern")
+        call check(error, index(status%message, "constraint_sparsity") > 0, &
+            "message: " // status%message)
+        ! The general scheme does not need the declarations.
+        integ%structured = .false.
+        call integ%init(negative, 2, 1, 3, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "general path")
+    end subroutine bad_declarations
+
+    !> A NaN gradient in the third step: code 4, the state of step 2 kept.
+    subroutine failure_keeps_state(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(nan_pendulum) :: sys
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        real(wp) :: q(3), p(3), q2(3), p2(3)
+        integer :: done
+        sys%spherical_pendulum = spherical_pendulum()
+        call sys%initial_state(q, p)
+        call integ%init(sys, 2, 1, 3, status)
+        call integ%integrate(sys, q, p, 0.125_wp, 2, status=status)
+        q2 = q
+        p2 = p
+        call integ%integrate(sys, q, p, 0.125_wp, 1, status=status)
+        ! z grows: a threshold between z after step 2 and step 3.
+        sys%threshold = (q2(3) + q(3)) / 2
+        call sys%initial_state(q, p)
+        call integ%integrate(sys, q, p, 0.125_wp, 5, steps_done=done, status=status)
+        call check_status_code(error, status%code, HOLOSYM_NONFINITE_VALUE, "NaN gradient")
+        call check(error, done == 2, "steps done " // int_str(done))
+        call check(error, all(q == q2) .and. all(p == p2), "state of step 2 kept")
+    end subroutine failure_keeps_state
+
+    !> A rod only 1e-8 longer than the tracks' distance (nearly dependent constraints): the
+    !! real64 factors of the reduced step fail and the general scheme's working-precision
+    !! ones take over.
+    subroutine nearly_dependent(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spring_linkage) :: sys
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        real(wp) :: q(6), p(6), radius, excess, delta
+        delta = max(1.0e-8_wp, eps**0.25_wp)
+        sys = spring_linkage()
+        radius = sys%track_radius
+        sys%rod_length = 2 * radius * (1 + delta)
+        excess = 2 * radius * sqrt(delta * (2 + delta))
+        q = [-excess / 2, -radius, excess / 2, radius, -excess / 2, excess / 2]
+        p = 0
+        call integ%init(sys, 2, 1, 3, status)
+        call integ%integrate(sys, q, p, 1.0_wp / 64, 2, status=status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "nearly dependent")
+    end subroutine nearly_dependent
+
+    ! ------------------------------------------------------------------ test systems
+
+    subroutine dense_chain_sparsity(self, rows, columns)
+        class(dense_chain), intent(in) :: self
+        integer, allocatable, intent(out) :: rows(:), columns(:)
+        integer :: l, i
+        allocate (rows(self%m * self%n), columns(self%m * self%n))
+        do i = 1, self%n
+            do l = 1, self%m
+                rows(l + (i - 1) * self%m) = l
+                columns(l + (i - 1) * self%m) = i
+            end do
+        end do
+    end subroutine dense_chain_sparsity
+
+    subroutine dense_chain_values(self, q, rows, columns, values)
+        class(dense_chain), intent(in) :: self
+        real(wp), intent(in) :: q(:)
+        integer, intent(in) :: rows(:), columns(:)
+        real(wp), intent(out) :: values(:)
+        real(wp) :: jacobian(self%m, self%n)
+        integer :: e
+        call self%constraint_jacobian(q, jacobian)
+        do e = 1, size(rows)
+            values(e) = jacobian(rows(e), columns(e))
+        end do
+    end subroutine dense_chain_values
+
+    subroutine dense_chain_potential(self, rows, columns)
+        class(dense_chain), intent(in) :: self
+        integer, allocatable, intent(out) :: rows(:), columns(:)
+        integer :: i, k
+        allocate (rows(self%n**2), columns(self%n**2))
+        do k = 1, self%n
+            do i = 1, self%n
+                rows(i + (k - 1) * self%n) = i
+                columns(i + (k - 1) * self%n) = k
+            end do
+        end do
+    end subroutine dense_chain_potential
+
+    logical function negative_mass(self, mass) result(declared)
+        class(negative_mass_pendulum), intent(in) :: self
+        real(wp), intent(out) :: mass(:)
+        mass = -1
+        declared = .true.
+    end function negative_mass
+
+    subroutine bad_pattern(self, rows, columns)
+        class(bad_pattern_chain), intent(in) :: self
+        integer, allocatable, intent(out) :: rows(:), columns(:)
+        rows = [1, 2, 3]
+        columns = [1, 3, self%n + 1]
+    end subroutine bad_pattern
+
+    subroutine nan_dh_dq(self, q, p, gradient)
+        use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+        class(nan_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: gradient(:)
+        call self%spherical_pendulum%dh_dq(q, p, gradient)
+        if (q(3) > self%threshold) gradient(3) = ieee_value(1.0_wp, ieee_quiet_nan)
+    end subroutine nan_dh_dq
+
+end module test_reduced
