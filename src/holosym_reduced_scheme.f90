@@ -387,17 +387,24 @@ contains
             "non-finite residual")
     end subroutine reduced_residual_lowered
 
-    !> The Newton matrix at x and d(p_b - p_a)/dx (real64, in the layout's patterns:
-    !! jac_values, dp_values), assembled from the second derivatives of U and phi at the
-    !! Gauss points and nodes of the real64 evaluation at x.
-    subroutine reduced_jacobian(self, x, status)
+    !> The Newton matrix and d(p_b - p_a)/dx (real64, in the layout's patterns:
+    !! jac_values, dp_values) at the point of the last evaluation, `residual_lowered`
+    !! (`lowered` true) or `residual`, assembled from the second derivatives of U and phi at
+    !! its Gauss points and nodes.
+    subroutine reduced_jacobian(self, lowered, status)
         class(reduced_scheme_t), intent(inout) :: self
-        real(wp), intent(in) :: x(:)   !! unknowns
+        logical, intent(in) :: lowered !! the last evaluation was `residual_lowered`
         type(holosym_status_t), intent(out) :: status !! non-finite user values
         self%jacobians = self%jacobians + 1
-        self%x_low = real(x, dp)
-        call self%residual_lowered(self%x_low, self%f_base, status)
-        if (.not. status%ok()) return
+        if (.not. lowered) then
+            ! The evaluation's points in the real64 workspace that the assembly reads.
+            self%low%z = real(self%ev%z, dp)
+            self%low%mu = real(self%ev%mu, dp)
+            self%low%qg = real(self%ev%qg - spread(self%qa, 2, self%gauss_points), dp) + &
+                spread(self%low_qa, 2, self%gauss_points)
+            self%low%pv = real(self%ev%pv, dp)
+            self%low%d = real(self%ev%d, dp)
+        end if
         call second_derivatives(self, status)
         if (.not. status%ok()) return
         call assemble(self)

@@ -35,6 +35,13 @@ module holosym_reduced_step
     !> Safety factor on the error predicted from the contraction rate, which varies from one
     !! iteration to the next.
     real(wp), parameter :: rate_margin = 8
+    !> Corrections within this factor of the target are finished with the factors at hand
+    !! (their rates are dominated by round-off there, and a few more solves cost less than
+    !! new factors).
+    real(wp), parameter :: refactor_floor = 64
+    !> Below the round-off floor, corrections shrinking by less than this factor have
+    !! stagnated.
+    real(wp), parameter :: stagnation_rate = 0.5_wp
     !> Growing corrections with fresh factors this many times in a row: diverged.
     integer, parameter :: max_growth = 3
 
@@ -61,7 +68,7 @@ module holosym_reduced_step
         logical :: prefer_fresh = .false.
         integer :: fresh_streak = 0
         real(wp), allocatable :: x(:), f(:), x_guess(:)
-        real(dp), allocatable :: x_low(:), delta(:)
+        real(dp), allocatable :: x_low(:), delta(:), f_low(:)
         ! The previous solved step.
         logical :: have_last = .false.
         real(wp), allocatable :: last_x(:), last_qa(:)
@@ -86,9 +93,9 @@ contains
         nx = self%scheme%nx
         call self%factors%setup(nx, self%scheme%layout%kl, self%scheme%layout%ku)
         if (allocated(self%x)) deallocate (self%x, self%f, self%x_guess, self%x_low, &
-                                           self%delta, self%last_x, self%last_qa)
+                                           self%delta, self%f_low, self%last_x, self%last_qa)
         allocate (self%x(nx), self%f(nx), self%x_guess(nx), self%x_low(nx), self%delta(nx), &
-                  self%last_x(nx), self%last_qa(sys%n))
+                  self%f_low(nx), self%last_x(nx), self%last_qa(sys%n))
         call self%forget()
     end subroutine step_init
 
@@ -169,7 +176,7 @@ contains
             type(holosym_status_t), intent(out) :: status
             real(wp) :: correction, previous, target, floor, rate, last_rate
             integer :: iter, growth, action
-            logical :: lowered, fresh, kept
+            logical :: lowered, fresh, kept, need_factors
 
             lowered = .not. wp_is_double
             previous = huge(1.0_wp)
@@ -178,23 +185,26 @@ contains
             rate = 1
             last_rate = 0
             kept = self%factors%factored
-            if (.not. self%factors%factored) then
-                call refactor(status)
-                if (.not. status%ok()) return
-                fresh = .true.
-            end if
+            need_factors = .not. self%factors%factored
             do iter = 1, max_iterations
                 report%iterations = report%iterations + 1
+                ! The residual at x; new factors, when due, from the same evaluation.
                 if (lowered) then
                     self%x_low = real(self%x, dp)
-                    call self%scheme%residual_lowered(self%x_low, self%delta, status)
+                    call self%scheme%residual_lowered(self%x_low, self%f_low, status)
                 else
                     call self%scheme%residual(self%x, self%f, status)
-                    self%delta = real(self%f, dp)
+                    self%f_low = real(self%f, dp)
                 end if
                 if (.not. status%ok()) return
-                call self%factors%solve(self%delta)
-                correction = maxval(abs(self%delta)) / scale
+                if (need_factors) then
+                    call refactor(lowered, status)
+                    if (.not. status%ok()) return
+                    fresh = .true.
+                    need_factors = .false.
+                    previous = huge(1.0_wp)
+                    last_rate = 0
+                end if
                 if (lowered) then
                     target = lowered_tolerance
                     floor = lowered_floor
@@ -202,25 +212,32 @@ contains
                     target = tolerance
                     floor = stagnation
                 end if
+                call correct(correction)
                 action = next_action(correction, previous, last_rate, target, floor, fresh, &
                                      growth)
+                if (action == ACTION_REFACTOR) then
+                    ! Kept factors contract poorly: fresh ones at x, same residual.
+                    if (kept) self%prefer_fresh = .true.
+                    call refactor(lowered, status)
+                    if (.not. status%ok()) return
+                    fresh = .true.
+                    previous = huge(1.0_wp)
+                    last_rate = 0
+                    call correct(correction)
+                    action = next_action(correction, previous, last_rate, target, floor, &
+                                         fresh, growth)
+                end if
                 select case (action)
                 case (ACTION_DIVERGED)
                     call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton corrections " // &
                         "grew " // int_str(growth) // " times in a row (last " // &
                         real_str(correction) // ") at iteration " // int_str(iter))
                     return
-                case (ACTION_REFACTOR)
-                    if (kept) self%prefer_fresh = .true.
-                    call refactor(status)
-                    if (.not. status%ok()) return
-                    fresh = .true.
-                    previous = huge(1.0_wp)
-                    last_rate = 0
-                    cycle
                 case (ACTION_CONVERGED)
                     self%x = self%x - real(self%delta, wp)
                     if (.not. lowered) then
+                        ! Accepted without a confirming residual: the step's results from
+                        ! the evaluation at the last iterate, updated to first order.
                         call self%scheme%increments(dq, dpb)
                         call self%scheme%linear_dp_change(-self%delta, self%f(1:size(dpb)))
                         dq = self%x(self%scheme%layout%z_col(:, self%scheme%order_m))
@@ -229,11 +246,7 @@ contains
                     end if
                     lowered = .false.
                     if (previous < huge(1.0_wp)) rate = correction / previous
-                    if (refresh_pays(rate, correction, tolerance)) then
-                        call refactor(status)
-                        if (.not. status%ok()) return
-                        fresh = .true.
-                    end if
+                    need_factors = refresh_pays(rate, correction, tolerance)
                     previous = huge(1.0_wp)
                     last_rate = 0
                     cycle
@@ -249,11 +262,22 @@ contains
                 "after " // int_str(max_iterations) // " iterations")
         end subroutine newton
 
-        !> Form and factor the Newton matrix at self%x.
-        subroutine refactor(status)
+        !> delta = the Newton correction for the residual f_low; its size relative to the
+        !! state.
+        subroutine correct(correction)
+            real(wp), intent(out) :: correction
+            self%delta = self%f_low
+            call self%factors%solve(self%delta)
+            correction = maxval(abs(self%delta)) / scale
+        end subroutine correct
+
+        !> Form and factor the Newton matrix at self%x from the evaluation just made there
+        !! (real64 or working precision).
+        subroutine refactor(lowered, status)
+            logical, intent(in) :: lowered
             type(holosym_status_t), intent(out) :: status
             integer :: info
-            call self%scheme%jacobian(self%x, status)
+            call self%scheme%jacobian(lowered, status)
             if (.not. status%ok()) return
             call self%factors%factor(self%scheme%layout%jac_start, self%scheme%layout%jac_col, &
                                      self%scheme%jac_values, info)
@@ -291,8 +315,8 @@ contains
     !! contraction rate theta, theta / (1 - theta) correction with theta the larger of the
     !! last two rates (the rate of kept factors varies), is within `target` (the latter
     !! with the margin `rate_margin`), or when
-    !! corrections stop decreasing below `floor` (round-off); REFACTOR when kept factors
-    !! contract worse than `contraction_limit`; DIVERGED after `max_growth` growing
+    !! corrections stop decreasing (by `stagnation_rate`) below `floor` (round-off); REFACTOR when kept factors
+    !! contract worse than `contraction_limit` far from the target; DIVERGED after `max_growth` growing
     !! corrections with fresh factors; else ITERATE.
     integer function next_action(correction, previous, last_rate, target, floor, fresh, &
                                  growth) result(action)
@@ -315,11 +339,16 @@ contains
         if (max(rate, last_rate) < 1) then
             if (max(rate, last_rate) / (1 - max(rate, last_rate)) * correction <= &
                 target / rate_margin) action = ACTION_CONVERGED
-        else if (correction <= floor) then
-            action = ACTION_CONVERGED
         end if
         if (action == ACTION_CONVERGED) return
-        if (rate > contraction_limit .and. .not. fresh) then
+        if (correction <= floor) then
+            ! Round-off: corrections this small that no longer decrease are noise of the
+            ! residual, not a sign of stale factors.
+            if (rate > stagnation_rate) action = ACTION_CONVERGED
+            return
+        end if
+        if (rate > contraction_limit .and. .not. fresh .and. &
+            correction > refactor_floor * target) then
             action = ACTION_REFACTOR
         else if (rate >= 1) then
             growth = growth + 1
