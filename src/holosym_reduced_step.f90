@@ -67,6 +67,11 @@ module holosym_reduced_step
         !! again every `retry_kept_every` steps).
         logical :: prefer_fresh = .false.
         integer :: fresh_streak = 0
+        !> Contraction of factors formed at the end of the real64 phase, as measured by the
+        !! working-precision corrections (1: not measured yet). Lets a step accept its first
+        !! working-precision correction when that is predicted to meet the tolerance.
+        real(wp) :: learned_rate = 1
+        integer :: steps_since_measured = 0
         real(wp), allocatable :: x(:), f(:), x_guess(:)
         real(dp), allocatable :: x_low(:), delta(:), f_low(:)
         ! The previous solved step.
@@ -107,6 +112,8 @@ contains
         self%factors_h = 0
         self%prefer_fresh = .false.
         self%fresh_streak = 0
+        self%learned_rate = 1
+        self%steps_since_measured = 0
         self%have_last = .false.
     end subroutine step_forget
 
@@ -129,6 +136,10 @@ contains
         type(holosym_status_t), intent(out) :: status
         real(wp) :: scale
         integer :: residuals0, lowered0
+        ! First working-precision correction after factors renewed at the end of the real64
+        ! phase (0: none yet), and whether it is being watched.
+        real(wp) :: first, low_rate
+        logical :: renewed, watch
 
         residuals0 = self%scheme%residuals
         lowered0 = self%scheme%lowered_residuals
@@ -186,6 +197,10 @@ contains
             last_rate = 0
             kept = self%factors%factored
             need_factors = .not. self%factors%factored
+            renewed = .false.
+            watch = .false.
+            first = 0
+            low_rate = 1
             do iter = 1, max_iterations
                 report%iterations = report%iterations + 1
                 ! The residual at x; new factors, when due, from the same evaluation.
@@ -215,6 +230,7 @@ contains
                 call correct(correction)
                 action = next_action(correction, previous, last_rate, target, floor, fresh, &
                                      growth)
+                if (watch) call first_corrections(correction, action)
                 if (action == ACTION_REFACTOR) then
                     ! Kept factors contract poorly: fresh ones at x, same residual.
                     if (kept) self%prefer_fresh = .true.
@@ -247,6 +263,12 @@ contains
                     lowered = .false.
                     if (previous < huge(1.0_wp)) rate = correction / previous
                     need_factors = refresh_pays(rate, correction, tolerance)
+                    renewed = need_factors
+                    ! A rate measured above the real64 round-off predicts the kept factors'.
+                    low_rate = 1
+                    if (previous < huge(1.0_wp) .and. correction > 10 * lowered_tolerance &
+                        .and. rate < 1) low_rate = rate
+                    watch = .true.
                     previous = huge(1.0_wp)
                     last_rate = 0
                     cycle
@@ -261,6 +283,35 @@ contains
             call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged " // &
                 "after " // int_str(max_iterations) // " iterations")
         end subroutine newton
+
+        !> The first working-precision corrections: the first is accepted when a known
+        !! contraction predicts the tolerance met: that of the real64 phase when its factors
+        !! are kept, or `learned_rate` for factors renewed at its end (the second correction
+        !! after a renewal measures it again; every 16th step does so).
+        subroutine first_corrections(correction, action)
+            real(wp), intent(in) :: correction
+            integer, intent(inout) :: action
+            real(wp) :: known
+            if (first == 0) then
+                first = correction
+                if (renewed) then
+                    self%steps_since_measured = self%steps_since_measured + 1
+                    known = self%learned_rate
+                    if (self%steps_since_measured >= 16) known = 1
+                else
+                    known = low_rate
+                end if
+                if (action == ACTION_ITERATE .and. known < 1) then
+                    if (rate_margin * known / (1 - known) * correction <= tolerance) &
+                        action = ACTION_CONVERGED
+                end if
+            else if (renewed) then
+                if (first > 0) self%learned_rate = correction / first
+                self%steps_since_measured = 0
+                renewed = .false.
+            end if
+            if (first /= correction) watch = renewed
+        end subroutine first_corrections
 
         !> delta = the Newton correction for the residual f_low; its size relative to the
         !! state.
