@@ -1,7 +1,11 @@
 !> Test runner: `fpm test [-- FILTER]` runs every test whose "suite/name" contains FILTER.
-!! The last line is "N passed, M failed"; the exit code is non-zero on any failure.
+!! The last line is "N passed, M failed"; the exit code is non-zero on any failure and when
+!! FILTER matches no test. The scratch directory of the tests that run commands is made
+!! fresh at the start and removed at the end unless a test failed.
 program holosym_tests
+    use, intrinsic :: iso_fortran_env, only: error_unit
     use holosym_testing, only: run_suite
+    use holosym_test_commands, only: reset_scratch, remove_scratch, scratch_path
     use test_quadrature, only: quadrature_tests
     use test_lagrange, only: lagrange_tests
     use test_linalg, only: linalg_tests
@@ -24,6 +28,10 @@ program holosym_tests
     passed = 0
     failed = 0
     skipped = 0
+    if (.not. reset_scratch()) then
+        write (error_unit, '(a)') "holosym_tests: cannot create " // scratch_path("")
+        stop 2, quiet=.true.
+    end if
     ! Suites are registered here, one line each.
     call run_suite("quadrature", quadrature_tests(), filter, passed, failed, skipped)
     call run_suite("lagrange", lagrange_tests(), filter, passed, failed, skipped)
@@ -37,6 +45,12 @@ program holosym_tests
     call run_suite("rattle", rattle_tests(), filter, passed, failed, skipped)
     call run_suite("extremes", extremes_tests(), filter, passed, failed, skipped)
     call run_suite("bench", bench_tests(), filter, passed, failed, skipped)
+    if (passed + failed + skipped == 0) then
+        write (error_unit, '(a)') "holosym_tests: no test matches '" // trim(filter) // &
+            "' (a test is selected when its suite/name contains the filter, e.g. scheme/)"
+        call remove_scratch()
+        stop 2, quiet=.true.
+    end if
     if (skipped > 0) then
         write (summary, '(i0, " passed, ", i0, " failed, ", i0, " skipped")') passed, failed, &
             skipped
@@ -44,5 +58,10 @@ program holosym_tests
         write (summary, '(i0, " passed, ", i0, " failed")') passed, failed
     end if
     print '(a)', trim(summary)
-    if (failed > 0) error stop 1
+    if (failed > 0) then
+        write (error_unit, '(a)') "holosym_tests: files of the failed tests kept in " // &
+            scratch_path("")
+        stop 1, quiet=.true.
+    end if
+    call remove_scratch()
 end program holosym_tests

@@ -10,8 +10,11 @@ module test_scheme
     use holosym_scheme, only: discrete_scheme, unknown_count
     use holosym_integrator, only: constrained_integrator
     use holosym_models, only: spherical_pendulum, spring_linkage
+    use holosym_scheme_kernels_wp, only: template_sha256_wp => template_sha256
+    use holosym_scheme_kernels_dp, only: template_sha256_dp => template_sha256
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
-        check_status_code
+        check_status_code, skip
+    use holosym_test_commands, only: file_exists, file_sha256
     implicit none
     private
     public :: scheme_tests
@@ -73,9 +76,31 @@ contains
             new_test("extrapolated_guess_continues_polynomial", extrapolated_guess), &
             new_test("converged_residual_round_off_pendulum", converged_pendulum), &
             new_test("converged_residual_round_off_linkage", converged_linkage), &
-            new_test("solution_matches_integrator_step", matches_integrator_step) &
+            new_test("solution_matches_integrator_step", matches_integrator_step), &
+            new_test("kernels_compiled_from_current_template", kernels_template_current) &
             ]
     end function scheme_tests
+
+    !> Both kernel modules were compiled from the template now in include/: each records
+    !! the template's SHA-256, and fpm rebuilds a module only when its own source changes,
+    !! so an edit of the template without tools/include_digest.sh (run by make) shows here.
+    subroutine kernels_template_current(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(len=*), parameter :: template = "include/holosym_scheme_kernels.inc"
+        character(len=:), allocatable :: digest
+        call check(error, file_exists(template), template // " not found: run the tests " // &
+            "from the repository root")
+        if (allocated(error)) return
+        digest = file_sha256(template)
+        if (len(digest) == 0) then
+            call skip(error, "sha256sum is not available")
+            return
+        end if
+        call check(error, template_sha256_wp == digest .and. template_sha256_dp == digest, &
+            "the kernel modules were compiled from an older " // template // " (recorded " // &
+            template_sha256_wp // ", " // template_sha256_dp // "; the file has " // digest // &
+            "): run tools/include_digest.sh, or make, and rebuild")
+    end subroutine kernels_template_current
 
     ! ------------------------------------------------------------------ the line particle
 
