@@ -17,7 +17,7 @@ module holosym_cli_bench
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
-    use holosym_cli_simulate, only: make_system
+    use holosym_systems, only: make_system, system_choices
     implicit none
     private
 
@@ -166,7 +166,7 @@ contains
             if (comma > 0) last = first + comma - 2
             if (.not. any(bench_systems == list(first:last))) then
                 call fail(status, "option --systems: unknown system '" // list(first:last) // &
-                    "'; choose pendulum, linkage or planar")
+                    "'; choose " // system_choices)
                 return
             end if
             if (comma == 0) exit

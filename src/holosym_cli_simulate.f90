@@ -13,7 +13,7 @@ module holosym_cli_simulate
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_manifold, only: manifold_residuals
-    use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
+    use holosym_systems, only: make_system, is_system_name, system_names, system_choices
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
@@ -22,12 +22,7 @@ module holosym_cli_simulate
 
     public :: simulate_config_t, simulate_summary_t
     public :: parse_simulate_options, run_simulate, simulate_command, simulate_help
-    public :: csv_header, make_system, system_names
-
-    !> Names accepted by `--system`: the spherical pendulum (paper Example 1), the
-    !! spring-linkage mechanism (Example 2) and the planar pendulum.
-    character(len=*), parameter :: system_names(*) = [character(len=8) :: &
-        "pendulum", "linkage", "planar"]
+    public :: csv_header
 
     !> Default degree M of the displacement polynomial.
     integer, parameter :: default_order_m = 2
@@ -248,11 +243,11 @@ contains
         status%message = ""
         select case (name)
         case ("--system")
-            if (any(system_names == value)) then
+            if (is_system_name(value)) then
                 config%system = value
             else
                 call fail(status, "option --system: unknown system '" // value // &
-                    "'; choose pendulum, linkage or planar")
+                    "'; choose " // system_choices)
             end if
         case ("--M", "--m")
             call parse_integer(name, value, config%order_m, status)
@@ -308,41 +303,6 @@ contains
                 real_str(config%steps * config%step_size)
         end if
     end subroutine resolve_steps
-
-    !> The system called `name` (see `system_names`) and its initial state.
-    !! Fails with HOLOSYM_INVALID_ARGUMENT for an unknown name.
-    subroutine make_system(name, sys, q, p, status)
-        character(len=*), intent(in) :: name  !! system name
-        class(constrained_hamiltonian), allocatable, intent(out) :: sys !! the system
-        real(wp), allocatable, intent(out) :: q(:) !! initial coordinates (n)
-        real(wp), allocatable, intent(out) :: p(:) !! initial momenta (n)
-        type(holosym_status_t), intent(out) :: status !! outcome
-        type(spherical_pendulum) :: sphere
-        type(spring_linkage) :: linkage
-        type(planar_pendulum) :: planar
-
-        status%code = HOLOSYM_SUCCESS
-        status%message = ""
-        select case (name)
-        case ("pendulum")
-            sphere = spherical_pendulum()
-            allocate (q(sphere%n), p(sphere%n))
-            call sphere%initial_state(q, p)
-            allocate (sys, source=sphere)
-        case ("linkage")
-            linkage = spring_linkage()
-            allocate (q(linkage%n), p(linkage%n))
-            call linkage%initial_state(q, p)
-            allocate (sys, source=linkage)
-        case ("planar")
-            planar = planar_pendulum()
-            allocate (q(planar%n), p(planar%n))
-            call planar%initial_state(q, p)
-            allocate (sys, source=planar)
-        case default
-            call fail(status, "unknown system '" // name // "'")
-        end select
-    end subroutine make_system
 
     !> The CSV header for n coordinates and m constraints, e.g. for n = 3, m = 1:
     !! `t,q1,q2,q3,p1,p2,p3,lambda1,H,energy_error,constraint_residual,velocity_residual,`

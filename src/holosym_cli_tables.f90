@@ -17,7 +17,7 @@ module holosym_cli_tables
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
-    use holosym_cli_simulate, only: make_system, system_names
+    use holosym_systems, only: make_system, is_system_name, system_names, system_choices
     implicit none
     private
 
@@ -124,9 +124,9 @@ contains
                 select case (name)
                 case ("--system")
                     options%system = value
-                    if (.not. any(system_names == value)) call fail(status, &
-                        "option --system: unknown system '" // value // &
-                        "'; choose pendulum, linkage or planar")
+                    if (.not. is_system_name(value)) call fail(status, &
+                        "option --system: unknown system '" // value // "'; choose " // &
+                        system_choices)
                 case ("--T")
                     call parse_real(name, value, options%span, status)
                     if (status%ok() .and. .not. options%span > 0) call fail(status, &

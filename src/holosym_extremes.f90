@@ -25,6 +25,7 @@ module holosym_extremes
     use holosym_scheme, only: discrete_scheme
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default
     use holosym_projection, only: project_to_manifold
+    use holosym_systems, only: make_system
     implicit none
     private
 
@@ -911,11 +912,16 @@ contains
         integer(int64) :: start
 
         start = clock_now()
-        call paper_system(system, sys, q0, p0)
         cell%system = system
         cell%order_m = order_m
         cell%order_n = order_m - 1
         cell%gauss_points = order_m + 1
+        call make_system(system, sys, q0, p0, fail_status)
+        if (.not. fail_status%ok()) then
+            cell%step_fail_code = fail_status%code
+            cell%step_fail_message = fail_status%message
+            return
+        end if
         call search_largest_step(sys, q0, p0, order_m, .false., cell%h_step, cell%h_step_fail, &
                                  fail_status, steps_done, clean, capped)
         cell%step_fail_code = fail_status%code
@@ -1044,26 +1050,6 @@ contains
                 .and. scaled_p <= manifold_tolerance_default
         end if
     end subroutine large_step_trial
-
-    !> The paper system `name` (pendulum or linkage) and its initial state.
-    subroutine paper_system(name, sys, q0, p0)
-        character(len=*), intent(in) :: name
-        class(constrained_hamiltonian), allocatable, intent(out) :: sys
-        real(wp), allocatable, intent(out) :: q0(:), p0(:)
-        type(spherical_pendulum) :: sphere
-        type(spring_linkage) :: linkage
-        if (name == "linkage") then
-            linkage = spring_linkage()
-            allocate (q0(linkage%n), p0(linkage%n))
-            call linkage%initial_state(q0, p0)
-            allocate (sys, source=linkage)
-        else
-            sphere = spherical_pendulum()
-            allocate (q0(sphere%n), p0(sphere%n))
-            call sphere%initial_state(q0, p0)
-            allocate (sys, source=sphere)
-        end if
-    end subroutine paper_system
 
     ! ------------------------------------------------------------------ 5. stiff
 
