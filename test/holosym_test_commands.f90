@@ -14,7 +14,7 @@ module holosym_test_commands
     private
 
     public :: text_line_t, command_result_t
-    public :: holosym_executable, run_holosym, run_shell, shell_quote
+    public :: holosym_executable, run_holosym, run_shell, shell_quote, words
     public :: scratch_path, reset_scratch, remove_scratch
     public :: read_lines, write_lines, file_exists, file_sha256, any_line_contains
 
@@ -138,8 +138,9 @@ contains
         quoted = quoted // "'"
     end function shell_quote
 
-    !> Run a shell command line (built by the caller from quoted words) with standard input
-    !! from /dev/null; capture its exit status and both outputs (via scratch files).
+    !> Run a shell command line (built by the caller from quoted words) in a subshell with
+    !! standard input from /dev/null; capture its exit status and both outputs (via scratch
+    !! files).
     subroutine run_shell(command, result)
         character(len=*), intent(in) :: command     !! the command line
         type(command_result_t), intent(out) :: result !! exit code and output lines
@@ -152,7 +153,8 @@ contains
         result%failure = ""
         allocate (result%out(0), result%err(0))
         message = ""
-        call execute_command_line(command // " < /dev/null > " // shell_quote(out_file) // &
+        call execute_command_line("( " // command // " ) < /dev/null > " // &
+            shell_quote(out_file) // &
             " 2> " // shell_quote(err_file), wait=.true., exitstat=result%exit_code, &
             cmdstat=stat, cmdmsg=message)
         if (stat /= 0) then
@@ -209,6 +211,47 @@ contains
         end do
         call run_holosym_args(words, result)
     end subroutine run_holosym_line
+
+    !> Up to eight words as an argument list for `run_holosym` (any lengths; a word's
+    !! trailing blanks are not kept).
+    function words(w1, w2, w3, w4, w5, w6, w7, w8) result(list)
+        character(len=*), intent(in) :: w1                       !! first word
+        character(len=*), intent(in), optional :: w2, w3, w4, w5, w6, w7, w8 !! more words
+        character(len=:), allocatable :: list(:)
+        integer :: length, count
+        length = len(w1)
+        count = 1
+        call measure(w2)
+        call measure(w3)
+        call measure(w4)
+        call measure(w5)
+        call measure(w6)
+        call measure(w7)
+        call measure(w8)
+        allocate (character(len=length) :: list(count))
+        list(1) = w1
+        count = 1
+        call add(w2)
+        call add(w3)
+        call add(w4)
+        call add(w5)
+        call add(w6)
+        call add(w7)
+        call add(w8)
+    contains
+        subroutine measure(word)
+            character(len=*), intent(in), optional :: word
+            if (.not. present(word)) return
+            length = max(length, len(word))
+            count = count + 1
+        end subroutine measure
+        subroutine add(word)
+            character(len=*), intent(in), optional :: word
+            if (.not. present(word)) return
+            count = count + 1
+            list(count) = word
+        end subroutine add
+    end function words
 
     !> Every line of a text file, of any length; `ios` /= 0 when it cannot be read.
     subroutine read_lines(path, lines, ios)

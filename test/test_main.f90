@@ -18,6 +18,8 @@ program holosym_tests
     use test_rattle, only: rattle_tests
     use test_extremes, only: extremes_tests
     use test_bench, only: bench_tests
+    use test_extremes_cli, only: extremes_cli_tests
+    use test_harness, only: harness_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed, skipped
@@ -33,6 +35,7 @@ program holosym_tests
         stop 2, quiet=.true.
     end if
     ! Suites are registered here, one line each.
+    call run_suite("harness", harness_tests(), filter, passed, failed, skipped)
     call run_suite("quadrature", quadrature_tests(), filter, passed, failed, skipped)
     call run_suite("lagrange", lagrange_tests(), filter, passed, failed, skipped)
     call run_suite("linalg", linalg_tests(), filter, passed, failed, skipped)
@@ -44,6 +47,7 @@ program holosym_tests
     call run_suite("speed", speed_tests(), filter, passed, failed, skipped)
     call run_suite("rattle", rattle_tests(), filter, passed, failed, skipped)
     call run_suite("extremes", extremes_tests(), filter, passed, failed, skipped)
+    call run_suite("extremes", extremes_cli_tests(), filter, passed, failed, skipped)
     call run_suite("bench", bench_tests(), filter, passed, failed, skipped)
     if (passed + failed + skipped == 0) then
         write (error_unit, '(a)') "holosym_tests: no test matches '" // trim(filter) // &

@@ -17,6 +17,13 @@ module holosym_systems
     !> The names as a message lists them.
     character(len=*), parameter, public :: system_choices = "pendulum, linkage or planar"
 
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
 contains
 
     !> Whether `name` is one of `system_names`.
@@ -62,3 +69,11 @@ contains
     end subroutine make_system
 
 end module holosym_systems
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_systems) holosym_systems_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_systems_app

@@ -2,8 +2,8 @@
 !! its initial state and write the trajectory as CSV.
 !!
 !! Parsing (`parse_simulate_options`) and running (`run_simulate`) are separate procedures
-!! that return a status instead of stopping, so both can be tested in-process;
-!! `simulate_command` combines them and turns the outcome into an exit code.
+!! that return a status instead of stopping; `simulate_command` combines them and turns the
+!! outcome into an exit code.
 module holosym_cli_simulate
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
@@ -111,6 +111,13 @@ module holosym_cli_simulate
         !> Write rows and update the summary after each step.
         procedure :: observe => csv_writer_observe
     end type csv_writer
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
 
 contains
 
@@ -562,3 +569,11 @@ contains
     end subroutine simulate_command
 
 end module holosym_cli_simulate
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_simulate) holosym_cli_simulate_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_simulate_app

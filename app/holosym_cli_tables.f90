@@ -70,6 +70,13 @@ module holosym_cli_tables
         type(study_settings_t) :: settings
     end type tables_result_t
 
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
 contains
 
     !> The text of `holosym tables --help`.
@@ -589,3 +596,11 @@ contains
     end subroutine tables_command
 
 end module holosym_cli_tables
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_tables) holosym_cli_tables_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_tables_app

@@ -56,6 +56,13 @@ module holosym_cli_bench
         logical :: help = .false.                    !! --help given
     end type bench_options_t
 
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
 contains
 
     !> The text of `holosym bench --help`.
@@ -723,3 +730,11 @@ contains
     end subroutine bench_command
 
 end module holosym_cli_bench
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_bench) holosym_cli_bench_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_bench_app

@@ -1,7 +1,7 @@
-!> Measurements at the extremes behind `holosym extremes` (issue 4): long runs and the
-!! growth of round-off, tiny steps, high orders, large steps, stiff springs and
-!! near-singular constraints. Each study fills a result type; the command formats them and
-!! the test suite runs shortened versions (`extremes_settings(quick=.true.)` or smaller).
+!> Measurements at the extremes behind `holosym extremes`: long runs and the growth of
+!! round-off, tiny steps, high orders, large steps, stiff springs and near-singular
+!! constraints. Each study fills a result type, which the command formats;
+!! `extremes_settings(quick=.true.)` gives the shortened sizes of `extremes --quick`.
 !!
 !! Error measures: the relative energy error |H - H0| / |H0| (the paper's), the constraint
 !! residual max |phi| at the displacement nodes (from the step diagnostics) and, for the
@@ -228,6 +228,13 @@ module holosym_extremes
     contains
         procedure :: observe => monitor_observe
     end type run_monitor
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
 
 contains
 
@@ -1186,3 +1193,11 @@ contains
     end subroutine run_near_singular_study
 
 end module holosym_extremes
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_extremes) holosym_extremes_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_extremes_app

@@ -38,6 +38,13 @@ module holosym_cli_extremes
         logical :: help = .false.  !! --help given
     end type extremes_options_t
 
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
 contains
 
     !> The text of `holosym extremes --help`.
@@ -649,3 +656,11 @@ contains
     end subroutine report_near
 
 end module holosym_cli_extremes
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_extremes) holosym_cli_extremes_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_extremes_app
