@@ -2,7 +2,8 @@
 #   make test     install what is missing, build, run the test suite
 #   make tables   the paper's Tables 1-3 (convergence orders, minimum Gauss points)
 #   make bench    work-precision benchmark (real128 and real64 builds) into build/bench
-# Other targets: make pendulum, make linkage, make examples, make deps.
+# Other targets: make test64, make install-check, make pendulum, make linkage, make examples,
+# make deps.
 
 FPM ?= fpm
 FPM_FLAGS ?= --profile release
@@ -12,7 +13,8 @@ BENCH_ARGS ?=
 # The real64 build of the whole library (see src/core/holosym_kinds.F90).
 REAL64_FLAGS ?= --flag "-DHOLOSYM_REAL64"
 
-.PHONY: all deps include-digest test test64 tables bench pendulum linkage examples clean
+.PHONY: all deps include-digest test test64 install-check tables bench pendulum linkage \
+	examples clean
 
 all: test
 
@@ -27,6 +29,10 @@ include-digest:
 
 test: deps include-digest
 	$(FPM) test
+
+# fpm install gives the library's modules and nothing else.
+install-check: deps include-digest
+	./tools/check_install.sh
 
 tables: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- tables
