@@ -20,6 +20,7 @@ program holosym_tests
     use test_bench, only: bench_tests
     use test_extremes_cli, only: extremes_cli_tests
     use test_harness, only: harness_tests
+    use test_api, only: api_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed, skipped
@@ -42,6 +43,7 @@ program holosym_tests
     call run_suite("scheme", scheme_tests(), filter, passed, failed, skipped)
     call run_suite("errors", errors_tests(), filter, passed, failed, skipped)
     call run_suite("integrator", integrator_tests(), filter, passed, failed, skipped)
+    call run_suite("api", api_tests(), filter, passed, failed, skipped)
     call run_suite("cli", cli_tests(), filter, passed, failed, skipped)
     call run_suite("tables", tables_tests(), filter, passed, failed, skipped)
     call run_suite("speed", speed_tests(), filter, passed, failed, skipped)
