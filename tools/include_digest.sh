@@ -41,7 +41,8 @@ while IFS= read -r source; do
             sed -i -E "s/\"[0-9a-f]{64}\"/\"$digest\"/" "$source"
             echo "$source: recorded the new digest of $inc"
         fi
-    done < <(sed -n -E 's/^[[:space:]]*#?[[:space:]]*include[[:space:]]+"([^"]+)".*/\1/ip' "$source")
+    done < <(sed -n -E \
+        's/^[[:space:]]*#?[[:space:]]*include[[:space:]]+"([^"]+)".*/\1/ip' "$source")
 done < <(grep -rlE '^[[:space:]]*#?[[:space:]]*include[[:space:]]+"' src --include='*.f90' \
              --include='*.F90')
 
