@@ -2,17 +2,19 @@
 #   make test     install what is missing, build, run the test suite
 #   make tables   the paper's Tables 1-3 (convergence orders, minimum Gauss points)
 #   make bench    work-precision benchmark (real128 and real64 builds) into build/bench
-# Other targets: make pendulum, make linkage, make examples, make deps.
+# Other targets: make test64, make install-check, make pendulum, make linkage, make examples,
+# make deps.
 
 FPM ?= fpm
 FPM_FLAGS ?= --profile release
 SIMULATE_ARGS ?= --M 2 --N 1 --G 3 --h 0.125 --T 10 --every 8
 BENCH_DIR ?= build/bench
 BENCH_ARGS ?=
-# The real64 build of the whole library (see src/holosym_kinds.F90).
+# The real64 build of the whole library (see src/core/holosym_kinds.F90).
 REAL64_FLAGS ?= --flag "-DHOLOSYM_REAL64"
 
-.PHONY: all deps test test64 tables bench pendulum linkage examples clean
+.PHONY: all deps include-digest test test64 install-check tables bench pendulum linkage \
+	examples clean
 
 all: test
 
@@ -20,18 +22,27 @@ all: test
 deps:
 	@./tools/install-deps.sh
 
-test: deps
+# Record the digest of include/*.inc in the sources that include it, so that fpm (which
+# tracks only the sources' own text) rebuilds them after an edit of the template.
+include-digest:
+	@./tools/include_digest.sh
+
+test: deps include-digest
 	$(FPM) test
 
-tables: deps
+# fpm install gives the library's modules and nothing else.
+install-check: deps include-digest
+	./tools/check_install.sh
+
+tables: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- tables
 
 # The test suite in the real64 build.
-test64: deps
+test64: deps include-digest
 	$(FPM) test $(REAL64_FLAGS)
 
 # real128 sweep (writes the reference), real64 sweep against it, summary, plot.
-bench: deps
+bench: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- bench --out $(BENCH_DIR) $(BENCH_ARGS)
 	$(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) -- bench --out $(BENCH_DIR) \
 		--reference $(BENCH_DIR)/reference.csv $(BENCH_ARGS)
@@ -39,13 +50,13 @@ bench: deps
 	./tools/plot_bench.sh $(BENCH_DIR)
 	@cat $(BENCH_DIR)/summary.md
 
-pendulum: deps
+pendulum: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- simulate --system pendulum $(SIMULATE_ARGS)
 
-linkage: deps
+linkage: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- simulate --system linkage $(SIMULATE_ARGS)
 
-examples: deps
+examples: deps include-digest
 	$(FPM) run $(FPM_FLAGS) --example spherical_pendulum
 	$(FPM) run $(FPM_FLAGS) --example spring_linkage
 	$(FPM) run $(FPM_FLAGS) --example planar_pendulum

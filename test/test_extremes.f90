@@ -1,29 +1,26 @@
-!> Tests of issue 4: the projection onto the constraint manifold, shortened versions of the
-!! six studies of `holosym extremes` (long run and round-off growth, tiny steps, high
-!! orders, large steps, stiff springs, near-singular constraints), the provably singular
-!! family G <= N, the `extremes` command's options, and a randomized test of 10,000 valid
-!! and invalid parameter sets and states.
+!> Tests at the extremes, at the library level: the projection onto the constraint
+!! manifold, shortened versions of the measurements of `holosym extremes` (long run and
+!! round-off growth, tiny steps, high orders, large steps, stiff springs, near-singular
+!! constraints), the provably singular family G <= N, and a randomized test of 10,000 valid
+!! and invalid parameter sets and states. The `extremes` command itself is tested through
+!! the executable in test_extremes_cli.
 module test_extremes
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_positive_inf, &
         ieee_negative_inf, ieee_is_finite
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym, only: wp, holosym_status_t, constrained_hamiltonian, constrained_integrator, &
         spherical_pendulum, spring_linkage, planar_pendulum, project_to_manifold, &
-        projection_report_t, manifold_residuals, manifold_tolerance_default, &
+        projection_report_t, manifold_residuals, manifold_tolerance_default, step_observer, &
+        step_info_t, gauss_legendre, gauss_lobatto, lagrange_matrices, lu_factor, lu_solve, &
+        newton_settings_t, newton_report_t, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
     use holosym_status, only: int_str, real_str
-    use holosym_extremes, only: long_run_result_t, run_long_study, growth_result_t, &
-        run_growth_study, tiny_cell_t, run_tiny_study, high_order_row_t, run_high_order_study, &
-        large_step_cell_t, run_large_step_study, stiff_cell_t, run_stiff_study, &
-        near_singular_cell_t, run_near_singular_study, gauss_rule_error, lobatto_rule_error, &
-        basis_error, fitted_exponent, max_study_order, extremes_settings_t, extremes_settings
-    use holosym_cli_common, only: cli_argument_t, split_words, EXIT_OK, EXIT_USAGE
-    use holosym_cli_extremes, only: extremes_options_t, parse_extremes_options, &
-        extremes_command
+    use holosym_newton, only: newton_solve
+    use holosym_scheme, only: discrete_scheme
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
         check_status_code
     implicit none
@@ -31,14 +28,19 @@ module test_extremes
     public :: extremes_tests
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
-    !> The issue's bound on the constraint residual of the long run: 5000 eps (9.6e-31 in
-    !! real128, within the issue's 1e-30; 1.1e-12 in real64).
+    !> Bound on the constraint residuals of the runs: 5000 eps (9.6e-31 in real128, within
+    !! the required 1e-30; 1.1e-12 in real64).
     real(wp), parameter :: constraint_bound = 5000 * eps
     !> "No drift": the max energy error of the whole run may exceed that of the early
     !! window by at most this factor (the error of a symplectic method is quasi-periodic).
     real(wp), parameter :: drift_factor = 2
     !> Quadrature and basis up to 16 points must be accurate to ~1e-32: 2**10 epsilon.
     real(wp), parameter :: rule_tolerance = 1024 * eps
+    !> Largest M of the high-order range (G = 16 Gauss points).
+    integer, parameter :: max_study_order = 15
+    !> Errors at or below this are round-off, not truncation: 2**20 epsilon (2.0e-28 in
+    !! real128), the round-off of a few thousand steps with some margin.
+    real(wp), parameter :: error_floor = 1048576 * eps
     !> A measured order agrees with the law 2M within this distance (as the tables command).
     real(wp), parameter :: order_agreement = 0.3_wp
     !> Largest decimal exponent e of the randomized off-manifold offsets 10**(-e): the offset
@@ -46,7 +48,7 @@ module test_extremes
     !! 7 in real64, where 1e-20 would be far below round-off).
     integer, parameter :: max_offset_exponent = &
         min(20, int(-log10(1.0e5_wp * 1024 * epsilon(1.0_wp))))
-    !> Cases of the randomized test (the issue asks for at least 10,000).
+    !> Cases of the randomized test (at least 10,000).
     integer, parameter :: random_cases = 10000
     !> Every status code the library documents (holosym_status).
     integer, parameter :: documented_codes(*) = [HOLOSYM_INVALID_ORDER, &
@@ -104,6 +106,26 @@ module test_extremes
         procedure :: dh_dq => nan_dh_dq
     end type nan_pendulum
 
+    !> Records a run step by step: energy error (relative), constraint residuals, largest
+    !! multiplier and, for the spherical pendulum, the change of L_z = x p_y - y p_x.
+    type, extends(step_observer) :: run_record
+        class(constrained_hamiltonian), allocatable :: sys !! the system, for H
+        real(wp) :: energy0 = 0        !! H at the start
+        real(wp) :: energy_scale = 1   !! |H0|, or 1 when H0 = 0
+        integer :: window = 0          !! early window of the drift ratio (steps)
+        logical :: track_lz = .false.  !! record L_z
+        real(wp) :: lz0 = 0            !! L_z at the start
+        integer :: steps = 0           !! steps recorded
+        real(wp) :: energy_window = 0  !! max relative energy error in the window
+        real(wp) :: energy_max = 0     !! max relative energy error
+        real(wp) :: constraint_max = 0 !! max |phi| at the displacement nodes
+        real(wp) :: velocity_max = 0   !! max |Phi H_p| at the step ends
+        real(wp) :: lambda_max = 0     !! max |lambda|
+        real(wp), allocatable :: lz_error(:) !! L_z - L_z(0) after each step
+    contains
+        procedure :: observe => record_observe
+    end type run_record
+
 contains
 
     !> The tests of this suite.
@@ -124,8 +146,6 @@ contains
             new_test("large_steps_fail_cleanly", large_steps), &
             new_test("stiff_springs", stiff_springs), &
             new_test("near_singular_constraints", near_singular), &
-            new_test("cli_options", cli_options), &
-            new_test("cli_in_process", cli_in_process), &
             new_test("randomized_10000_cases", randomized_cases) &
             ]
     end function extremes_tests
@@ -530,88 +550,230 @@ contains
 
     ! ------------------------------------------------------------------ studies, shortened
 
-    !> Study 1 shortened: no energy drift and constraints at round-off throughout.
+    !> Set up a run record for a run from (q, p) of `steps` steps.
+    subroutine record_start(record, sys, q, p, steps, window, track_lz)
+        type(run_record), intent(out) :: record         !! the record
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q(:), p(:)              !! start state
+        integer, intent(in) :: steps                    !! steps of the run
+        integer, intent(in) :: window                   !! early window of the drift ratio
+        logical, intent(in) :: track_lz                 !! record L_z (spherical pendulum)
+        allocate (record%sys, source=sys)
+        record%energy0 = sys%hamiltonian(q, p)
+        record%energy_scale = abs(record%energy0)
+        if (.not. record%energy_scale > 0) record%energy_scale = 1
+        record%window = window
+        record%track_lz = track_lz
+        if (track_lz) record%lz0 = q(1) * p(2) - q(2) * p(1)
+        allocate (record%lz_error(steps))
+        record%lz_error = 0
+    end subroutine record_start
+
+    !> Record one step.
+    subroutine record_observe(self, step, t, q, p, info, halt)
+        class(run_record), intent(inout) :: self !! the record
+        integer, intent(in) :: step           !! step number
+        real(wp), intent(in) :: t             !! time
+        real(wp), intent(in) :: q(:)          !! coordinates after the step
+        real(wp), intent(in) :: p(:)          !! momenta after the step
+        type(step_info_t), intent(in) :: info !! diagnostics of the step
+        logical, intent(inout) :: halt        !! not set
+        real(wp) :: energy_error
+        energy_error = abs(self%sys%hamiltonian(q, p) - self%energy0) / self%energy_scale
+        self%steps = step
+        self%energy_max = max(self%energy_max, energy_error)
+        if (step <= self%window) self%energy_window = max(self%energy_window, energy_error)
+        self%constraint_max = max(self%constraint_max, info%constraint_residual)
+        self%velocity_max = max(self%velocity_max, info%velocity_residual)
+        if (size(info%lambda) > 0) self%lambda_max = max(self%lambda_max, &
+                                                         maxval(abs(info%lambda)))
+        if (self%track_lz .and. step <= size(self%lz_error)) &
+            self%lz_error(step) = q(1) * p(2) - q(2) * p(1) - self%lz0
+    end subroutine record_observe
+
+    !> `steps` steps of (M, M - 1, M + 1) at h through `integrate`: the state at the end
+    !! and the record of the run.
+    subroutine record_run(sys, q0, p0, order_m, h, steps, q_end, record, status, general)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q0(:), p0(:)   !! start state
+        integer, intent(in) :: order_m         !! M
+        real(wp), intent(in) :: h              !! step size
+        integer, intent(in) :: steps           !! number of steps
+        real(wp), intent(out) :: q_end(:)      !! q after the run
+        type(run_record), intent(out) :: record !! what happened
+        type(holosym_status_t), intent(out) :: status !! outcome
+        !> The general scheme even where the reduced step applies (references: it keeps the
+        !! momenta as unknowns, with |E| ~ M^2 times less round-off than the reduced step).
+        logical, intent(in), optional :: general
+        type(constrained_integrator) :: integrator
+        real(wp) :: q(size(q0)), p(size(p0))
+        q = q0
+        p = p0
+        call record_start(record, sys, q, p, steps, steps, .false.)
+        if (present(general)) integrator%structured = .not. general
+        call integrator%init(sys, order_m, order_m - 1, order_m + 1, status)
+        if (status%ok()) call integrator%integrate(sys, q, p, h, steps, record, status=status)
+        q_end = q
+    end subroutine record_run
+
+    !> Long run shortened: 1000 steps of the paper's setting (spherical pendulum,
+    !! (M, N, G) = (2, 1, 3), h = 1/8): no energy drift and constraints at round-off.
     subroutine long_run_no_drift(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(long_run_result_t) :: result
+        type(spherical_pendulum) :: sys
+        type(constrained_integrator) :: integrator
+        type(run_record) :: record
         type(holosym_status_t) :: status
+        real(wp) :: q(3), p(3)
         integer, parameter :: steps = 1000, window = 100
-        call run_long_study(steps, window, result, status)
-        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "long study")
-        call check_status_code(error, result%code, HOLOSYM_SUCCESS, "long run")
-        call check(error, result%steps_done == steps, "steps done " // &
-            int_str(result%steps_done))
+        integer :: done
+        sys = spherical_pendulum()
+        call sys%initial_state(q, p)
+        call record_start(record, sys, q, p, steps, window, .true.)
+        call integrator%init(sys, 2, 1, 3, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "init")
         if (allocated(error)) return
-        call check(error, result%energy_total <= drift_factor * result%energy_window, &
-            "energy drift: max over the run " // real_str(result%energy_total) // &
-            " > 2 x max over the first 100 steps " // real_str(result%energy_window))
-        call check(error, result%constraint_max <= constraint_bound .and. &
-            result%velocity_max <= constraint_bound, "constraint residuals " // &
-            real_str(result%constraint_max) // ", " // real_str(result%velocity_max))
-        call check(error, result%energy_window > 0, "energy error measured")
-        call run_long_study(0, window, result, status)
-        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "0 steps")
+        call integrator%integrate(sys, q, p, 0.125_wp, steps, record, done, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "long run")
+        call check(error, done == steps, "steps done " // int_str(done))
+        if (allocated(error)) return
+        call check(error, record%energy_max <= drift_factor * record%energy_window, &
+            "energy drift: max over the run " // real_str(record%energy_max) // &
+            " > 2 x max over the first 100 steps " // real_str(record%energy_window))
+        call check(error, record%constraint_max <= constraint_bound .and. &
+            record%velocity_max <= constraint_bound, "constraint residuals " // &
+            real_str(record%constraint_max) // ", " // real_str(record%velocity_max))
+        call check(error, record%energy_window > 0, "energy error measured")
     end subroutine long_run_no_drift
 
-    !> Round-off growth shortened: L_z changes by round-off only, within the random-walk
-    !! envelope eps sqrt(k) at every block, with both kinds of summation.
+    !> Round-off growth shortened: L_z = x p_y - y p_x, which the scheme conserves exactly,
+    !! changes by round-off only, within the random-walk envelope eps sqrt(k) in every
+    !! doubling block of steps (RMS over the block and over two copies of the start state
+    !! rotated about z), with compensated (`integrate`) and naive (a loop of `step`)
+    !! summation.
     subroutine roundoff_growth(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(growth_result_t) :: result
+        integer, parameter :: steps = 128, copies = 2
+        type(spherical_pendulum) :: sys
+        type(constrained_integrator) :: integrator
+        type(run_record) :: record
+        type(step_info_t) :: info
         type(holosym_status_t) :: status
-        integer :: k, first
-        real(wp) :: centre
-        call run_growth_study(128, 2, result, status)
-        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "growth study")
-        call check_status_code(error, result%code, HOLOSYM_SUCCESS, "growth runs")
-        if (allocated(error)) return
-        first = 1
-        do k = 1, size(result%block_end)
-            centre = (real(first, wp) + result%block_end(k)) / 2
-            call check(error, result%rms_compensated(k) <= eps * sqrt(centre) .and. &
-                result%rms_naive(k) <= eps * sqrt(centre), "L_z error above eps sqrt(k) in " &
-                // "block " // int_str(k) // ": " // real_str(result%rms_compensated(k)) // &
-                ", " // real_str(result%rms_naive(k)))
-            first = result%block_end(k) + 1
+        real(wp) :: q0(3), p0(3), q(3), p(3), angle
+        real(wp) :: sum_squares(2, steps), rms, centre
+        integer :: c, variant, k, first, last
+        logical :: halt
+        real(wp), parameter :: pi = 4 * atan(1.0_wp)
+
+        sys = spherical_pendulum()
+        sum_squares = 0
+        do c = 1, copies
+            call sys%initial_state(q0, p0)
+            angle = 2 * pi * (c - 1) / copies
+            q0 = [cos(angle) * q0(1) - sin(angle) * q0(2), sin(angle) * q0(1) + &
+                  cos(angle) * q0(2), q0(3)]
+            p0 = [cos(angle) * p0(1) - sin(angle) * p0(2), sin(angle) * p0(1) + &
+                  cos(angle) * p0(2), p0(3)]
+            call project_to_manifold(sys, q0, p0, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "projection")
+            do variant = 1, 2
+                q = q0
+                p = p0
+                call record_start(record, sys, q, p, steps, steps, .true.)
+                call integrator%init(sys, 2, 1, 3, status)
+                if (variant == 1) then
+                    call integrator%integrate(sys, q, p, 0.125_wp, steps, record, &
+                                              status=status)
+                else
+                    halt = .false.
+                    do k = 1, steps
+                        call integrator%step(sys, q, p, 0.125_wp, info, status)
+                        if (.not. status%ok()) exit
+                        call record%observe(k, k * 0.125_wp, q, p, info, halt)
+                    end do
+                end if
+                call check_status_code(error, status%code, HOLOSYM_SUCCESS, "run")
+                if (allocated(error)) return
+                sum_squares(variant, :) = sum_squares(variant, :) + record%lz_error**2
+            end do
         end do
-        call check(error, result%rms_compensated(size(result%block_end)) > 0, "L_z measured")
-        call check_close(error, fitted_exponent([1.0_wp, 4.0_wp, 16.0_wp], &
-            [3.0_wp, 6.0_wp, 12.0_wp]), 0.5_wp, 0.0_wp, 8 * eps, "fitted exponent of sqrt")
-        call run_growth_study(1, 2, result, status)
-        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "1 step")
+        ! Blocks 1-2, 3-4, 5-8, ..., 65-128.
+        first = 1
+        last = 2
+        do while (first <= steps)
+            centre = (real(first, wp) + last) / 2
+            do variant = 1, 2
+                rms = sqrt(sum(sum_squares(variant, first:last)) / (copies * (last - first + 1)))
+                call check(error, rms <= eps * sqrt(centre), "L_z error above eps sqrt(k) in " &
+                    // "steps " // int_str(first) // "-" // int_str(last) // ", " // &
+                    trim(merge("compensated", "naive      ", variant == 1)) // " summation: " &
+                    // real_str(rms))
+            end do
+            first = last + 1
+            last = 2 * last
+        end do
+        call check(error, any(sum_squares(1, steps / 2:) > 0), "L_z change measured")
     end subroutine roundoff_growth
 
-    !> Study 2 shortened: with M = 4 the error after 20 steps falls with h until the
-    !! round-off band 64 eps sqrt(K): above it at h_large, inside it at h = 1e-4.
+    !> Tiny steps shortened: with M = 4 the error after 20 steps falls with h until the
+    !! round-off band 64 eps sqrt(K): above it at h_large, inside it at h = 1e-4 (global
+    !! error against an M = 8 run with steps of at most 1/8, checked against half of them).
     subroutine tiny_steps(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(tiny_cell_t), allocatable :: cells(:, :)
-        type(holosym_status_t) :: status
         integer, parameter :: steps = 20
-        real(wp) :: band
         !> Largest step of the study, where M = 4 must be truncation-dominated: 1e-2 in
         !! real128; in real64 even h = 1e-1 is at round-off (1.1e-16), so it uses 0.5.
         real(wp), parameter :: h_large = merge(1.0e-2_wp, 0.5_wp, precision(1.0_wp) >= 30)
+        real(wp), parameter :: step_sizes(3) = [h_large, 1.0e-3_wp, 1.0e-4_wp]
+        type(spherical_pendulum) :: sys
+        type(constrained_integrator) :: integrator
+        type(run_record) :: record
+        type(holosym_status_t) :: status
+        real(wp) :: q0(3), p0(3), q(3), p(3), q_ref(3), q_check(3), q_end(3), span, band
+        real(wp) :: global_error(3), energy_error(3), reference_change
+        integer :: i, reference_steps
+
         band = 64 * eps * sqrt(real(steps, wp))
-        call run_tiny_study([4], [h_large, 1.0e-3_wp, 1.0e-4_wp], steps, cells, status)
-        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "tiny study")
-        if (allocated(error)) return
-        call check(error, all(cells%code == HOLOSYM_SUCCESS), "tiny runs succeed")
-        call check(error, cells(1, 1)%global_error > band .and. &
-            cells(1, 1)%energy_error > band, "largest h is truncation-dominated: " // &
-            real_str(cells(1, 1)%global_error))
-        call check(error, cells(3, 1)%global_error <= band .and. &
-            cells(3, 1)%energy_error <= band, "h = 1e-4 is at round-off: " // &
-            real_str(cells(3, 1)%global_error) // ", " // real_str(cells(3, 1)%energy_error))
-        call check(error, cells(2, 1)%global_error < cells(1, 1)%global_error, &
-            "error decreases with h")
-        call check(error, maxval(cells%reference_change) <= band, "reference accurate")
-        call run_tiny_study([4], [-1.0_wp], steps, cells, status)
-        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "h = -1")
+        sys = spherical_pendulum()
+        call sys%initial_state(q0, p0)
+        reference_change = 0
+        do i = 1, size(step_sizes)
+            span = steps * step_sizes(i)
+            reference_steps = max(1, ceiling(span / 0.125_wp))
+            call record_run(sys, q0, p0, 8, span / reference_steps, reference_steps, q_ref, &
+                            record, status, general=.true.)
+            if (status%ok()) call record_run(sys, q0, p0, 8, span / (2 * reference_steps), &
+                2 * reference_steps, q_check, record, status, general=.true.)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "reference")
+            reference_change = max(reference_change, maxval(abs(q_check - q_ref)))
+            call record_run(sys, q0, p0, 4, step_sizes(i), steps, q_end, record, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "tiny run h = " // &
+                real_str(step_sizes(i)))
+            if (allocated(error)) return
+            global_error(i) = maxval(abs(q_end - q_check))
+            energy_error(i) = record%energy_max
+        end do
+        call check(error, global_error(1) > band .and. energy_error(1) > band, &
+            "largest h is truncation-dominated: " // real_str(global_error(1)))
+        call check(error, global_error(3) <= band .and. energy_error(3) <= band, &
+            "h = 1e-4 is at round-off: " // real_str(global_error(3)) // ", " // &
+            real_str(energy_error(3)))
+        call check(error, global_error(2) < global_error(1), "error decreases with h")
+        call check(error, reference_change <= band, "reference accurate: " // &
+            real_str(reference_change))
+        ! A step size <= 0 is refused by the integrator, the state untouched.
+        q = q0
+        p = p0
+        call integrator%init(sys, 4, 3, 5, status)
+        call integrator%integrate(sys, q, p, -1.0_wp, steps, status=status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_STEP_SIZE, "h = -1")
+        call check(error, same_bits(q, q0) .and. same_bits(p, p0), "h = -1: state unchanged")
     end subroutine tiny_steps
 
-    !> Study 3, the rules: Gauss-Legendre with 1..16 points, Lobatto with 2..16 points and
-    !! the Lagrange basis for M = 1..15 are exact on polynomials to ~1e-32.
+    !> The rules of the high-order range: Gauss-Legendre with 1..16 points (exact up to
+    !! degree 2G - 1), Lobatto with 2..16 points (up to 2K - 3) and the Lagrange basis on the
+    !! M + 1 Lobatto nodes for M = 1..15 (tau^k and k tau^(k-1), k <= M, at the Gauss
+    !! points) are exact on polynomials to ~1e-32.
     subroutine quadrature_and_basis(error)
         type(test_error_t), allocatable, intent(out) :: error
         integer :: k
@@ -626,189 +788,342 @@ contains
         end do
     end subroutine quadrature_and_basis
 
-    !> Study 3 shortened: orders 2M for M = 1..3 and the conditioning grows with M.
+    !> Max error of the G-point Gauss-Legendre rule on tau**k, k = 0..2G-1, over [0, 1].
+    function gauss_rule_error(points) result(worst)
+        integer, intent(in) :: points
+        real(wp) :: worst
+        real(wp) :: nodes(points), weights(points)
+        integer :: k
+        call gauss_legendre(nodes, weights)
+        worst = 0
+        do k = 0, 2 * points - 1
+            worst = max(worst, abs(sum(weights * nodes**k) - 1.0_wp / (k + 1)))
+        end do
+    end function gauss_rule_error
+
+    !> Max error of the K-point Gauss-Lobatto rule on tau**k, k = 0..2K-3, over [0, 1].
+    function lobatto_rule_error(points) result(worst)
+        integer, intent(in) :: points
+        real(wp) :: worst
+        real(wp) :: nodes(points), weights(points)
+        integer :: k
+        call gauss_lobatto(nodes, weights)
+        worst = 0
+        do k = 0, 2 * points - 3
+            worst = max(worst, abs(sum(weights * nodes**k) - 1.0_wp / (k + 1)))
+        end do
+    end function lobatto_rule_error
+
+    !> Max error of the degree-M Lagrange basis on the M+1 Lobatto nodes at the M+1 Gauss
+    !! points: interpolated tau**k and its derivative k tau**(k-1), k = 0..M.
+    function basis_error(order_m) result(worst)
+        integer, intent(in) :: order_m
+        real(wp) :: worst
+        real(wp) :: nodes(order_m + 1), weights(order_m + 1)
+        real(wp) :: points(order_m + 1), gauss_w(order_m + 1)
+        real(wp) :: values(order_m + 1, order_m + 1), derivatives(order_m + 1, order_m + 1)
+        integer :: k
+        call gauss_lobatto(nodes, weights)
+        call gauss_legendre(points, gauss_w)
+        call lagrange_matrices(nodes, points, values, derivatives)
+        worst = 0
+        do k = 0, order_m
+            worst = max(worst, maxval(abs(matmul(values, nodes**k) - points**k)))
+            if (k >= 1) worst = max(worst, maxval(abs(matmul(derivatives, nodes**k) - &
+                                                      k * points**(k - 1))))
+        end do
+    end function basis_error
+
+    !> The first step from the pendulum's state solved with the scheme directly (cold
+    !! start): the smallest relative pivot and the 1-norm condition number of the
+    !! row-equilibrated Newton Jacobian at the solution.
+    subroutine jacobian_conditioning(sys, q0, p0, order_m, h, pivot_ratio, condition, status)
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(in) :: q0(:), p0(:)  !! start state
+        integer, intent(in) :: order_m        !! M (N = M - 1, G = M + 1)
+        real(wp), intent(in) :: h             !! step size
+        real(wp), intent(out) :: pivot_ratio  !! smallest relative pivot
+        real(wp), intent(out) :: condition    !! ||J||_1 ||J^-1||_1
+        type(holosym_status_t), intent(out) :: status !! outcome
+        type(discrete_scheme) :: scheme
+        type(newton_settings_t) :: settings
+        type(newton_report_t) :: report
+        real(wp), allocatable :: x(:), jac(:, :), inverse(:, :)
+        integer, allocatable :: pivots(:)
+        integer :: i, info
+        pivot_ratio = 0
+        condition = huge(1.0_wp)
+        call scheme%init(order_m, order_m - 1, order_m + 1, sys%n, sys%m, status)
+        if (.not. status%ok()) return
+        allocate (x(scheme%nx), jac(scheme%nx, scheme%nx), pivots(scheme%nx))
+        call scheme%set_step(sys, q0, p0, h)
+        call scheme%constant_guess(x)
+        call newton_solve(scheme, x, settings, max(maxval(abs(q0)), maxval(abs(p0))), report, &
+                          status)
+        if (status%ok()) call scheme%jacobian(x, jac, status)
+        if (.not. status%ok()) return
+        do i = 1, size(jac, 1)
+            if (maxval(abs(jac(i, :))) > 0) jac(i, :) = jac(i, :) / maxval(abs(jac(i, :)))
+        end do
+        allocate (inverse(scheme%nx, scheme%nx))
+        inverse = 0
+        do i = 1, scheme%nx
+            inverse(i, i) = 1
+        end do
+        condition = maxval(sum(abs(jac), dim=1))
+        call lu_factor(jac, pivots, info, pivot_ratio=pivot_ratio)
+        if (info /= 0) then
+            condition = huge(1.0_wp)
+            return
+        end if
+        call lu_solve(jac, pivots, inverse)
+        condition = condition * maxval(sum(abs(inverse), dim=1))
+    end subroutine jacobian_conditioning
+
+    !> High orders shortened: orders 2M of the energy error for M = 1..3 (pendulum, T = 1,
+    !! a pair of step sizes), and the first step's Newton Jacobian is well conditioned
+    !! with a conditioning that worsens with M.
     subroutine high_orders(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(high_order_row_t), allocatable :: rows(:)
-        type(holosym_status_t) :: status
-        integer :: i
         !> Step pair of the order measurement: 1/4, 1/8 in real128; in real64 the M = 3 errors
         !! there sink to round-off, so it uses 1/2, 1/4.
         real(wp), parameter :: h_pair(2) = merge([0.25_wp, 0.125_wp], [0.5_wp, 0.25_wp], &
             precision(1.0_wp) >= 30)
-        call run_high_order_study(3, h_pair, 1.0_wp, rows, status)
-        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "high-order study")
-        if (allocated(error)) return
-        do i = 1, size(rows)
-            call check(error, rows(i)%order_measured, "order measured, M = " // int_str(i))
+        type(spherical_pendulum), target :: sys
+        type(run_record) :: record
+        type(holosym_status_t) :: status
+        real(wp) :: q0(3), p0(3), q_end(3), energy_error(2), order
+        real(wp) :: pivot(3), condition(3)
+        integer :: order_m, k
+        sys = spherical_pendulum()
+        call sys%initial_state(q0, p0)
+        do order_m = 1, 3
+            do k = 1, 2
+                call record_run(sys, q0, p0, order_m, h_pair(k), nint(1 / h_pair(k)), q_end, &
+                                record, status)
+                call check_status_code(error, status%code, HOLOSYM_SUCCESS, "run M = " // &
+                    int_str(order_m))
+                energy_error(k) = record%energy_max
+            end do
             if (allocated(error)) return
-            call check(error, abs(rows(i)%order - 2 * i) <= order_agreement, "order of M = " // &
-                int_str(i) // ": " // real_str(rows(i)%order))
-            call check(error, rows(i)%conditioning_code == HOLOSYM_SUCCESS .and. &
-                rows(i)%condition >= 1 .and. rows(i)%condition < 1 / eps, "condition of M = " &
-                // int_str(i) // ": " // real_str(rows(i)%condition))
-            if (i > 1) call check(error, rows(i)%pivot_ratio < rows(i - 1)%pivot_ratio .and. &
-                rows(i)%condition > rows(i - 1)%condition, "conditioning worsens with M")
+            call check(error, all(energy_error > error_floor), "order measured, M = " // &
+                int_str(order_m))
+            if (allocated(error)) return
+            order = log(energy_error(1) / energy_error(2)) / log(h_pair(1) / h_pair(2))
+            call check(error, abs(order - 2 * order_m) <= order_agreement, "order of M = " // &
+                int_str(order_m) // ": " // real_str(order))
+            call jacobian_conditioning(sys, q0, p0, order_m, 0.125_wp, pivot(order_m), &
+                                       condition(order_m), status)
+            call check(error, status%ok() .and. condition(order_m) >= 1 .and. &
+                condition(order_m) < 1 / eps, "condition of M = " // int_str(order_m) // &
+                ": " // real_str(condition(order_m)))
+            if (order_m > 1) call check(error, pivot(order_m) < pivot(order_m - 1) .and. &
+                condition(order_m) > condition(order_m - 1), "conditioning worsens with M")
         end do
-        call run_high_order_study(max_study_order + 1, [0.25_wp, 0.125_wp], 1.0_wp, rows, &
-                                  status)
-        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "M = 16")
     end subroutine high_orders
 
-    !> Study 4 shortened (M = 1): beyond the largest step Newton fails with a positive code,
-    !! the state unchanged (step) or finite and on the manifold (run); no NaN state.
+    !> One first step (`run` false) or one run over T = 10 at step h with (1, 0, 2) from
+    !! (q0, p0): the status, the steps done and whether a failure is clean (code > 0, the
+    !! state finite, and unchanged when no step was done, else on the manifold).
+    subroutine large_step_trial(sys, q0, p0, run, h, status, clean)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q0(:), p0(:)  !! start state
+        logical, intent(in) :: run            !! a run over T = 10, else one step
+        real(wp), intent(in) :: h             !! step size
+        type(holosym_status_t), intent(out) :: status !! outcome
+        logical, intent(out) :: clean         !! a clean failure
+        type(constrained_integrator) :: integrator
+        real(wp) :: q(size(q0)), p(size(p0))
+        integer :: done
+        q = q0
+        p = p0
+        done = 0
+        call integrator%init(sys, 1, 0, 2, status)
+        if (.not. status%ok()) return
+        if (run) then
+            call integrator%integrate(sys, q, p, h, max(1, nint(10 / h)), steps_done=done, &
+                                      status=status)
+        else
+            call integrator%step(sys, q, p, h, status=status)
+        end if
+        clean = status%code > 0 .and. all(ieee_is_finite(q)) .and. all(ieee_is_finite(p))
+        if (done == 0) then
+            clean = clean .and. same_bits(q, q0) .and. same_bits(p, p0)
+        else
+            clean = clean .and. on_manifold(sys, q, p)
+        end if
+    end subroutine large_step_trial
+
+    !> The largest h that succeeds (doubling from 1/8 up to 64, then 12 geometric
+    !! bisections) and the failing h just above it, with that failure.
+    subroutine largest_step(sys, q0, p0, run, h_good, h_bad, bad_status, bad_clean)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q0(:), p0(:)  !! start state
+        logical, intent(in) :: run            !! runs over T = 10, else first steps
+        real(wp), intent(out) :: h_good       !! largest h found to succeed (0: none)
+        real(wp), intent(out) :: h_bad        !! failing h above it (0: none up to 64)
+        type(holosym_status_t), intent(out) :: bad_status !! failure at h_bad
+        logical, intent(out) :: bad_clean     !! whether it is clean
+        type(holosym_status_t) :: status
+        real(wp) :: h
+        logical :: clean
+        integer :: k
+        h_good = 0
+        h_bad = 0
+        bad_clean = .false.
+        h = 0.125_wp
+        do while (h <= 64)
+            call large_step_trial(sys, q0, p0, run, h, status, clean)
+            if (.not. status%ok()) exit
+            h_good = h
+            h = 2 * h
+        end do
+        if (h > 64 .or. h_good == 0) return
+        h_bad = h
+        bad_status = status
+        bad_clean = clean
+        do k = 1, 12
+            h = sqrt(h_good * h_bad)
+            call large_step_trial(sys, q0, p0, run, h, status, clean)
+            if (status%ok()) then
+                h_good = h
+            else
+                h_bad = h
+                bad_status = status
+                bad_clean = clean
+            end if
+        end do
+    end subroutine largest_step
+
+    !> Large steps shortened (M = 1, pendulum and linkage): beyond the largest step Newton
+    !! fails with a positive code, the state unchanged (a step) or finite and on the
+    !! manifold (a run); never a NaN state. A run's largest step is at most a step's.
     subroutine large_steps(error)
         type(test_error_t), allocatable, intent(out) :: error
-        type(large_step_cell_t), allocatable :: cells(:)
-        type(holosym_status_t) :: status
-        integer :: i
-        call run_large_step_study(1, cells, status)
-        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "large-step study")
-        if (allocated(error)) return
-        call check(error, size(cells) == 2, "two systems")
-        do i = 1, size(cells)
-            call check(error, cells(i)%h_step > 0.125_wp .and. cells(i)%h_step_fail > &
-                cells(i)%h_step, cells(i)%system // ": h range " // real_str(cells(i)%h_step))
-            call check(error, cells(i)%step_fail_code > 0 .and. cells(i)%step_fail_clean, &
-                cells(i)%system // ": first-step failure not clean, code " // &
-                int_str(cells(i)%step_fail_code))
-            call check(error, index(cells(i)%step_fail_message, "h = ") > 0, &
-                cells(i)%system // ": message names h")
-            call check(error, cells(i)%run_fail_code > 0 .and. cells(i)%run_fail_clean, &
-                cells(i)%system // ": run failure not clean, code " // &
-                int_str(cells(i)%run_fail_code))
-            call check(error, cells(i)%h_run > 0 .and. cells(i)%h_run <= cells(i)%h_step * &
-                (1 + 1.0e-3_wp), cells(i)%system // ": h_run " // real_str(cells(i)%h_run))
-        end do
-    end subroutine large_steps
-
-    !> Study 5 shortened: k = 10^4 runs at omega h = 1 and 1/4 with constraints at
-    !! round-off, and the smaller step has the smaller energy error.
-    subroutine stiff_springs(error)
-        type(test_error_t), allocatable, intent(out) :: error
-        type(stiff_cell_t), allocatable :: cells(:)
-        type(holosym_status_t) :: status
-        call run_stiff_study([1.0e4_wp], [2], [1.0_wp, 0.25_wp], 1.0_wp, cells, status)
-        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "stiff study")
-        if (allocated(error)) return
-        call check(error, all(cells%code == HOLOSYM_SUCCESS), "stiff runs succeed")
-        call check(error, all(cells%constraint_max <= constraint_bound), "stiff constraints")
-        call check(error, cells(2)%energy_error < cells(1)%energy_error, "energy error falls " &
-            // "with h: " // real_str(cells(1)%energy_error) // " -> " // &
-            real_str(cells(2)%energy_error))
-        call check(error, abs(cells(1)%h - 0.01_wp) <= 4 * eps, "h = omega h / omega")
-        call run_stiff_study([-1.0_wp], [2], [1.0_wp], 1.0_wp, cells, status)
-        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "k = -1")
-    end subroutine stiff_springs
-
-    !> Study 6 shortened: near-dependent constraints still run with residuals at round-off
-    !! (and large multipliers); dependent ones give HOLOSYM_RANK_DEFICIENT_CONSTRAINTS.
-    subroutine near_singular(error)
-        type(test_error_t), allocatable, intent(out) :: error
-        type(near_singular_cell_t), allocatable :: cells(:)
-        type(holosym_status_t) :: status
-        !> The nearly dependent case: 1e-8 in real128; the Gram pivot ~delta**2 must stay
-        !! well above n eps, so real64 uses eps**(1/4) = 1.2e-4.
-        real(wp), parameter :: delta_near = max(1.0e-8_wp, eps**0.25_wp)
-        call run_near_singular_study([1.0e-2_wp, delta_near, 0.0_wp], 2, 1.0_wp / 64, cells, &
-                                     status)
-        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "near-singular study")
-        if (allocated(error)) return
-        call check(error, all(cells(1:2)%code == HOLOSYM_SUCCESS), "delta > 0 runs")
-        call check(error, all(cells(1:2)%constraint_max <= constraint_bound), &
-            "near-singular constraints at round-off")
-        call check(error, cells(2)%gram_pivot < cells(1)%gram_pivot .and. &
-            cells(2)%lambda_max > cells(1)%lambda_max, "pivot falls and lambda grows")
-        call check_status_code(error, cells(3)%code, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
-            "delta = 0")
-        call check(error, index(cells(3)%message, "rank deficient") > 0, "message: " // &
-            cells(3)%message)
-        call check(error, cells(3)%steps_done == 0, "no step at delta = 0")
-    end subroutine near_singular
-
-    ! ------------------------------------------------------------------ CLI
-
-    !> Good and bad options of `extremes`: missing, malformed and out-of-range values are
-    !! rejected with HOLOSYM_INVALID_ARGUMENT and a message naming the option and value.
-    subroutine cli_options(error)
-        type(test_error_t), allocatable, intent(out) :: error
-        type(extremes_options_t) :: options
-        type(holosym_status_t) :: status
-        type(extremes_settings_t) :: quick
-        call parse_extremes_options(split_words("--part long,stiff --steps 500 --max-order 4"), &
-                                    options, status)
-        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "good options")
-        call check(error, options%parts(1) .and. options%parts(5) .and. &
-            count(options%parts) == 2, "parts long and stiff")
-        call check(error, options%settings%long_steps == 500 .and. &
-            options%settings%long_window == 500 .and. &
-            options%settings%high_max_order == 4, "sizes")
-        call parse_extremes_options(split_words("--quick --part=near-singular"), options, &
-                                    status)
-        quick = extremes_settings(.true.)
-        call check(error, status%ok() .and. options%quick .and. options%parts(6) .and. &
-            count(options%parts) == 1 .and. options%settings%long_steps == quick%long_steps, &
-            "quick and inline part")
-        call parse_extremes_options(split_words("--part all"), options, status)
-        call check(error, status%ok() .and. all(options%parts), "all parts")
-        call reject("--steps 0", [character(len=16) :: "--steps", "'0'"])
-        call reject("--steps -5", [character(len=16) :: "--steps", "'-5'"])
-        call reject("--steps 1e3", [character(len=16) :: "--steps", "'1e3'"])
-        call reject("--steps 99999999999999999999", [character(len=16) :: "--steps", &
-                    "out of range"])
-        call reject("--steps", [character(len=16) :: "--steps", "a value"])
-        call reject("--max-order 16", [character(len=16) :: "--max-order", "'16'"])
-        call reject("--max-order 0", [character(len=16) :: "--max-order", "'0'"])
-        call reject("--max-order x", [character(len=16) :: "--max-order", "'x'"])
-        call reject("--part bogus", [character(len=16) :: "--part", "'bogus'"])
-        call reject("--part long,", [character(len=16) :: "--part", "''"])
-        call reject("--part", [character(len=16) :: "--part", "a value"])
-        call reject("--frobnicate", [character(len=16) :: "--frobnicate"])
+        type(spherical_pendulum) :: sphere
+        type(spring_linkage) :: linkage
+        sphere = spherical_pendulum()
+        linkage = spring_linkage()
+        call one(sphere, "pendulum")
+        call one(linkage, "linkage")
 
     contains
 
-        subroutine reject(line, texts)
-            character(len=*), intent(in) :: line
-            character(len=*), intent(in) :: texts(:)
-            integer :: k
+        subroutine one(sys, name)
+            class(constrained_hamiltonian), intent(in) :: sys
+            character(len=*), intent(in) :: name
+            real(wp), allocatable :: q0(:), p0(:)
+            real(wp) :: h_step, h_step_fail, h_run, h_run_fail
+            type(holosym_status_t) :: step_failure, run_failure
+            logical :: step_clean, run_clean
+            type(spherical_pendulum) :: sphere_model
+            type(spring_linkage) :: linkage_model
             if (allocated(error)) return
-            call parse_extremes_options(split_words(line), options, status)
-            call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "'" // line // &
-                "'")
-            do k = 1, size(texts)
-                call check(error, index(status%message, trim(texts(k))) > 0, "message for '" // &
-                    line // "' should name " // trim(texts(k)) // ": " // status%message)
-            end do
-        end subroutine reject
+            allocate (q0(sys%n), p0(sys%n))
+            if (name == "pendulum") then
+                call sphere_model%initial_state(q0, p0)
+            else
+                call linkage_model%initial_state(q0, p0)
+            end if
+            call largest_step(sys, q0, p0, .false., h_step, h_step_fail, step_failure, &
+                              step_clean)
+            call check(error, h_step > 0.125_wp .and. h_step_fail > h_step, name // &
+                ": h range " // real_str(h_step) // " .. " // real_str(h_step_fail))
+            if (allocated(error)) return
+            call check(error, step_failure%code > 0 .and. step_clean, name // &
+                ": first-step failure not clean, code " // int_str(step_failure%code))
+            call check(error, index(step_failure%message, "h = ") > 0, name // &
+                ": message names h: " // step_failure%message)
+            call largest_step(sys, q0, p0, .true., h_run, h_run_fail, run_failure, run_clean)
+            call check(error, h_run_fail > 0 .and. run_failure%code > 0 .and. run_clean, &
+                name // ": run failure not clean, code " // int_str(run_failure%code))
+            call check(error, h_run > 0 .and. h_run <= h_step * (1 + 1.0e-3_wp), name // &
+                ": h_run " // real_str(h_run) // ", h_step " // real_str(h_step))
+        end subroutine one
 
-    end subroutine cli_options
+    end subroutine large_steps
 
-    !> `extremes --help` and a short run in process: exit codes and Markdown output.
-    subroutine cli_in_process(error)
+    !> Stiff springs shortened: the spring-linkage with k = 10^4 over one spring period at
+    !! omega h = 1 and 1/4 (omega = sqrt(k / m_r)): constraints at round-off, and the
+    !! smaller step has the smaller energy error.
+    subroutine stiff_springs(error)
         type(test_error_t), allocatable, intent(out) :: error
-        integer :: out, err, code, ios
-        character(len=512) :: line
-        logical :: found
-        open (newunit=out, status="scratch", action="readwrite")
-        open (newunit=err, status="scratch", action="readwrite")
-        call extremes_command(split_words("--help"), out, err, code)
-        call check(error, code == EXIT_OK, "--help exits 0")
-        call extremes_command(split_words("--steps 0"), out, err, code)
-        call check(error, code == EXIT_USAGE, "--steps 0 exits 2")
-        rewind (out)
-        call extremes_command(split_words("--quick --part near-singular"), out, err, code)
-        call check(error, code == EXIT_OK, "near-singular part exits 0")
-        rewind (out)
-        found = .false.
-        do
-            read (out, '(a)', iostat=ios) line
-            if (ios /= 0) exit
-            if (index(line, "## 6. Near-singular") > 0) found = .true.
+        real(wp), parameter :: omega_h(2) = [1.0_wp, 0.25_wp], pi = 4 * atan(1.0_wp)
+        type(spring_linkage) :: sys
+        type(constrained_integrator) :: integrator
+        type(run_record) :: record
+        type(holosym_status_t) :: status
+        real(wp) :: q(6), p(6), omega, h(2), energy_error(2)
+        integer :: i, steps
+        do i = 1, 2
+            sys = spring_linkage(stiffness=1.0e4_wp)
+            call sys%initial_state(q, p)
+            omega = sqrt(1.0e4_wp / sys%track_mass)
+            h(i) = omega_h(i) / omega
+            steps = max(1, nint(2 * pi / omega_h(i)))
+            call record_start(record, sys, q, p, steps, steps, .false.)
+            call integrator%init(sys, 2, 1, 3, status)
+            if (status%ok()) call integrator%integrate(sys, q, p, h(i), steps, record, &
+                                                      status=status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "stiff run, omega h = " &
+                // real_str(omega_h(i)))
+            call check(error, record%constraint_max <= constraint_bound, "stiff constraints: " &
+                // real_str(record%constraint_max))
+            energy_error(i) = record%energy_max
         end do
-        call check(error, found, "the report has the near-singular section")
-        close (out)
-        close (err)
-    end subroutine cli_in_process
+        call check(error, energy_error(2) < energy_error(1), "energy error falls with h: " // &
+            real_str(energy_error(1)) // " -> " // real_str(energy_error(2)))
+        call check(error, abs(h(1) - 0.01_wp) <= 4 * eps, "h = omega h / omega")
+    end subroutine stiff_springs
+
+    !> Near-singular constraints shortened: the linkage with rod L = 2R(1 + delta), started
+    !! at rest next to the configuration where the three constraint gradients become
+    !! dependent. Nearly dependent ones still run with residuals at round-off (a smaller
+    !! pivot of Phi Phi^T, larger multipliers); dependent ones (delta = 0) give
+    !! HOLOSYM_RANK_DEFICIENT_CONSTRAINTS before any step.
+    subroutine near_singular(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        !> The nearly dependent case: 1e-8 in real128; the Gram pivot ~delta**2 must stay
+        !! well above n eps, so real64 uses eps**(1/4) = 1.2e-4.
+        real(wp), parameter :: delta_near = max(1.0e-8_wp, eps**0.25_wp)
+        real(wp), parameter :: deltas(3) = [1.0e-2_wp, delta_near, 0.0_wp]
+        type(spring_linkage) :: sys
+        type(constrained_integrator) :: integrator
+        type(run_record) :: record
+        type(holosym_status_t) :: status(3)
+        real(wp) :: q(6), p(6), radius, excess, jac(3, 6), gram(3, 3), gram_pivot(3)
+        real(wp) :: lambda_max(3), constraint_max(3)
+        integer :: i, pivots(3), info, done(3)
+        do i = 1, size(deltas)
+            sys = spring_linkage()
+            radius = sys%track_radius
+            sys%rod_length = 2 * radius * (1 + deltas(i))
+            excess = 2 * radius * sqrt(deltas(i) * (2 + deltas(i)))
+            q = [-excess / 2, -radius, excess / 2, radius, -excess / 2, excess / 2]
+            p = 0
+            call sys%constraint_jacobian(q, jac)
+            gram = matmul(jac, transpose(jac))
+            call lu_factor(gram, pivots, info, tolerance=0.0_wp, pivot_ratio=gram_pivot(i))
+            call project_to_manifold(sys, q, p, status(i))
+            call record_start(record, sys, q, p, 2, 2, .false.)
+            done(i) = 0
+            call integrator%init(sys, 2, 1, 3, status(i))
+            if (status(i)%ok()) call integrator%integrate(sys, q, p, 1.0_wp / 64, 2, record, &
+                                                          done(i), status(i))
+            lambda_max(i) = record%lambda_max
+            constraint_max(i) = record%constraint_max
+        end do
+        call check(error, status(1)%ok() .and. status(2)%ok(), "delta > 0 runs")
+        call check(error, all(constraint_max(1:2) <= constraint_bound), &
+            "near-singular constraints at round-off")
+        call check(error, gram_pivot(2) < gram_pivot(1) .and. lambda_max(2) > lambda_max(1), &
+            "pivot falls and lambda grows")
+        call check_status_code(error, status(3)%code, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
+            "delta = 0")
+        call check(error, index(status(3)%message, "rank deficient") > 0, "message: " // &
+            status(3)%message)
+        call check(error, done(3) == 0, "no step at delta = 0")
+    end subroutine near_singular
 
     ! ------------------------------------------------------------------ randomized
 

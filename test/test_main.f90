@@ -1,7 +1,11 @@
 !> Test runner: `fpm test [-- FILTER]` runs every test whose "suite/name" contains FILTER.
-!! The last line is "N passed, M failed"; the exit code is non-zero on any failure.
+!! The last line is "N passed, M failed"; the exit code is non-zero on any failure and when
+!! FILTER matches no test. The scratch directory of the tests that run commands is made
+!! fresh at the start and removed at the end unless a test failed.
 program holosym_tests
+    use, intrinsic :: iso_fortran_env, only: error_unit
     use holosym_testing, only: run_suite
+    use holosym_test_commands, only: reset_scratch, remove_scratch, scratch_path
     use test_quadrature, only: quadrature_tests
     use test_lagrange, only: lagrange_tests
     use test_linalg, only: linalg_tests
@@ -14,6 +18,9 @@ program holosym_tests
     use test_rattle, only: rattle_tests
     use test_extremes, only: extremes_tests
     use test_bench, only: bench_tests
+    use test_extremes_cli, only: extremes_cli_tests
+    use test_harness, only: harness_tests
+    use test_api, only: api_tests
     use test_reduced, only: reduced_tests
     implicit none
     character(len=256) :: filter
@@ -25,20 +32,33 @@ program holosym_tests
     passed = 0
     failed = 0
     skipped = 0
+    if (.not. reset_scratch()) then
+        write (error_unit, '(a)') "holosym_tests: cannot create " // scratch_path("")
+        stop 2, quiet=.true.
+    end if
     ! Suites are registered here, one line each.
+    call run_suite("harness", harness_tests(), filter, passed, failed, skipped)
     call run_suite("quadrature", quadrature_tests(), filter, passed, failed, skipped)
     call run_suite("lagrange", lagrange_tests(), filter, passed, failed, skipped)
     call run_suite("linalg", linalg_tests(), filter, passed, failed, skipped)
     call run_suite("scheme", scheme_tests(), filter, passed, failed, skipped)
     call run_suite("errors", errors_tests(), filter, passed, failed, skipped)
     call run_suite("integrator", integrator_tests(), filter, passed, failed, skipped)
+    call run_suite("api", api_tests(), filter, passed, failed, skipped)
     call run_suite("cli", cli_tests(), filter, passed, failed, skipped)
     call run_suite("tables", tables_tests(), filter, passed, failed, skipped)
     call run_suite("speed", speed_tests(), filter, passed, failed, skipped)
     call run_suite("rattle", rattle_tests(), filter, passed, failed, skipped)
     call run_suite("extremes", extremes_tests(), filter, passed, failed, skipped)
+    call run_suite("extremes", extremes_cli_tests(), filter, passed, failed, skipped)
     call run_suite("bench", bench_tests(), filter, passed, failed, skipped)
     call run_suite("reduced", reduced_tests(), filter, passed, failed, skipped)
+    if (passed + failed + skipped == 0) then
+        write (error_unit, '(a)') "holosym_tests: no test matches '" // trim(filter) // &
+            "' (a test is selected when its suite/name contains the filter, e.g. scheme/)"
+        call remove_scratch()
+        stop 2, quiet=.true.
+    end if
     if (skipped > 0) then
         write (summary, '(i0, " passed, ", i0, " failed, ", i0, " skipped")') passed, failed, &
             skipped
@@ -46,5 +66,10 @@ program holosym_tests
         write (summary, '(i0, " passed, ", i0, " failed")') passed, failed
     end if
     print '(a)', trim(summary)
-    if (failed > 0) error stop 1
+    if (failed > 0) then
+        write (error_unit, '(a)') "holosym_tests: files of the failed tests kept in " // &
+            scratch_path("")
+        stop 1, quiet=.true.
+    end if
+    call remove_scratch()
 end program holosym_tests

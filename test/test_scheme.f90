@@ -10,8 +10,13 @@ module test_scheme
     use holosym_scheme, only: discrete_scheme, unknown_count
     use holosym_integrator, only: constrained_integrator
     use holosym_models, only: spherical_pendulum, spring_linkage
+    use holosym_scheme_kernels_wp, only: template_sha256_wp => template_sha256
+    use holosym_scheme_kernels_dp, only: template_sha256_dp => template_sha256
+    use holosym_reduced_kernels_wp, only: reduced_sha256_wp => template_sha256
+    use holosym_reduced_kernels_dp, only: reduced_sha256_dp => template_sha256
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
-        check_status_code
+        check_status_code, skip
+    use holosym_test_commands, only: file_exists, file_sha256
     implicit none
     private
     public :: scheme_tests
@@ -73,9 +78,41 @@ contains
             new_test("extrapolated_guess_continues_polynomial", extrapolated_guess), &
             new_test("converged_residual_round_off_pendulum", converged_pendulum), &
             new_test("converged_residual_round_off_linkage", converged_linkage), &
-            new_test("solution_matches_integrator_step", matches_integrator_step) &
+            new_test("solution_matches_integrator_step", matches_integrator_step), &
+            new_test("kernels_compiled_from_current_template", kernels_template_current) &
             ]
     end function scheme_tests
+
+    !> Both instances of each kernel template were compiled from the template now in include/: each records
+    !! the template's SHA-256, and fpm rebuilds a module only when its own source changes,
+    !! so an edit of the template without tools/include_digest.sh (run by make) shows here.
+    subroutine kernels_template_current(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        call check_template(error, "include/holosym_scheme_kernels.inc", template_sha256_wp, &
+                            template_sha256_dp)
+        call check_template(error, "include/holosym_reduced_kernels.inc", reduced_sha256_wp, &
+                            reduced_sha256_dp)
+    end subroutine kernels_template_current
+
+    !> The digests compiled into a template's two instances equal the file's.
+    subroutine check_template(error, template, recorded_wp, recorded_dp)
+        type(test_error_t), allocatable, intent(inout) :: error
+        character(len=*), intent(in) :: template, recorded_wp, recorded_dp
+        character(len=:), allocatable :: digest
+        if (allocated(error)) return
+        call check(error, file_exists(template), template // " not found: run the tests " // &
+            "from the repository root")
+        if (allocated(error)) return
+        digest = file_sha256(template)
+        if (len(digest) == 0) then
+            call skip(error, "sha256sum is not available")
+            return
+        end if
+        call check(error, recorded_wp == digest .and. recorded_dp == digest, &
+            "the kernel modules were compiled from an older " // template // " (recorded " // &
+            recorded_wp // ", " // recorded_dp // "; the file has " // digest // &
+            "): run tools/include_digest.sh, or make, and rebuild")
+    end subroutine check_template
 
     ! ------------------------------------------------------------------ the line particle
 

@@ -2,15 +2,15 @@
 !! strict number parsing, CSV number formatting and the exit codes.
 !!
 !! Nothing here stops the program or prints: procedures return a `holosym_status_t`
-!! (code `HOLOSYM_INVALID_ARGUMENT` and a message naming the option and the value) so that
-!! every command can be tested in-process. Only the main program turns codes into exits.
+!! (code `HOLOSYM_INVALID_ARGUMENT` and a message naming the option and the value), which
+!! the commands report; only the main program turns exit codes into the process status.
 module holosym_cli_common
     use holosym_kinds, only: wp
     use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     implicit none
     private
 
-    public :: cli_argument_t, command_arguments, split_words
+    public :: cli_argument_t, command_arguments
     public :: split_option, option_value, parse_integer, parse_real
     public :: fail, csv_real, csv_integer, join_lines, parsed_command_proceeds
 
@@ -34,6 +34,13 @@ module holosym_cli_common
         character(len=:), allocatable :: text
     end type cli_argument_t
 
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
 contains
 
     !> The program's command-line arguments 1..n, from `get_command_argument`.
@@ -47,29 +54,6 @@ contains
             if (length > 0) call get_command_argument(i, args(i)%text)
         end do
     end function command_arguments
-
-    !> Split a line at blanks into arguments (no quoting), e.g. for tests:
-    !! `split_words("simulate --M 3")` gives ["simulate", "--M", "3"].
-    pure function split_words(line) result(args)
-        character(len=*), intent(in) :: line !! blank-separated words
-        type(cli_argument_t), allocatable :: args(:) !! the words, in order
-        integer :: first, last
-        allocate (args(0))
-        last = 0
-        do
-            first = verify(line(last + 1:), " ")
-            if (first == 0) exit
-            first = last + first
-            last = scan(line(first:), " ")
-            if (last == 0) then
-                last = len(line) + 1
-            else
-                last = first + last - 1
-            end if
-            args = [args, cli_argument_t(line(first:last - 1))]
-            if (last >= len(line)) exit
-        end do
-    end function split_words
 
     !> Split an argument into an option name and an inline value: "--h=0.5" gives name
     !! "--h", value "0.5"; "--h" gives name "--h" and no value.
@@ -304,3 +288,11 @@ contains
     end function parsed_command_proceeds
 
 end module holosym_cli_common
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_common) holosym_cli_common_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_common_app

@@ -190,14 +190,15 @@ module holosym_integrator
 
 contains
 
-    !> Set up the integrator for `sys` (its sizes n, m) and the scheme (M, N, G).
+    !> Set up the integrator for `sys` (its sizes n, m) and the scheme (M, N, G), e.g.
+    !! `call integ%init(sys, M=2, N=1, G=3, status=status)`.
     !! Codes: HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION.
-    subroutine integrator_init(self, sys, order_m, order_n, gauss_points, status)
+    subroutine integrator_init(self, sys, M, N, G, status)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in) :: sys !! the system (only n, m are read)
-        integer, intent(in) :: order_m      !! M >= 1, degree of the displacement polynomial
-        integer, intent(in) :: order_n      !! N >= 0, degree of the momentum polynomial
-        integer, intent(in) :: gauss_points !! G >= 1, Gauss points (G = max(M, N) + 1 typical)
+        integer, intent(in) :: M !! M >= 1, degree of the displacement polynomial
+        integer, intent(in) :: N !! N >= 0, degree of the momentum polynomial
+        integer, intent(in) :: G !! G >= 1, Gauss points (G = max(M, N) + 1 typical)
         type(holosym_status_t), intent(out), optional :: status !! outcome
         type(discrete_scheme) :: scheme
         type(holosym_status_t) :: local
@@ -208,15 +209,15 @@ contains
         self%reduced_active = .false.
         if (self%structured .and. sys%n >= 1) self%reduced_active = reduced_structure(sys, mass)
         ! Checks of (M, N, G) and of the sizes are the general scheme's.
-        call scheme%check(order_m, order_n, gauss_points, sys%n, sys%m, local)
+        call scheme%check(M, N, G, sys%n, sys%m, local)
         if (local%ok() .and. self%reduced_active) &
-            call self%reduced%init(sys, order_m, order_n, gauss_points, local)
+            call self%reduced%init(sys, M, N, G, local)
         ! The general scheme's workspace is dense (cubic in the size): as the reduced step's
         ! fallback only for small systems.
         self%general_ready = .not. self%reduced_active .or. &
             scheme%nx <= general_fallback_size
         if (local%ok() .and. self%general_ready) &
-            call scheme%init(order_m, order_n, gauss_points, sys%n, sys%m, local)
+            call scheme%init(M, N, G, sys%n, sys%m, local)
         if (.not. local%ok()) then
             self%ready = .false.
             call set_status(status, local%code, local%message)
@@ -226,7 +227,7 @@ contains
         self%ready = .true.
         self%have_last = .false.
         if (allocated(self%last_info%lambda)) deallocate (self%last_info%lambda)
-        allocate (self%last_info%lambda(sys%m, 0:order_m))
+        allocate (self%last_info%lambda(sys%m, 0:M))
         self%last_info%lambda = 0
         if (allocated(self%x_work)) deallocate (self%x_work, self%dq_work, self%dp_work, &
                                                 self%q_end_work, self%p_end_work)
@@ -249,14 +250,14 @@ contains
     end subroutine integrator_init
 
     !> (M, N, G) of the initialised scheme (zeros before `init`).
-    pure subroutine integrator_orders(self, order_m, order_n, gauss_points)
+    pure subroutine integrator_orders(self, M, N, G)
         class(constrained_integrator), intent(in) :: self
-        integer, intent(out) :: order_m      !! M
-        integer, intent(out) :: order_n      !! N
-        integer, intent(out) :: gauss_points !! G
-        order_m = self%scheme%order_m
-        order_n = self%scheme%order_n
-        gauss_points = self%scheme%gauss_points
+        integer, intent(out) :: M !! degree of the displacement polynomial
+        integer, intent(out) :: N !! degree of the momentum polynomial
+        integer, intent(out) :: G !! Gauss points
+        M = self%scheme%order_m
+        N = self%scheme%order_n
+        G = self%scheme%gauss_points
     end subroutine integrator_orders
 
     !> Check everything a step needs before touching the state.

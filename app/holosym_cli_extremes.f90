@@ -1,4 +1,4 @@
-!> The `extremes` command: numerical stability at the extremes (issue 4), measured.
+!> The `extremes` command: numerical stability at the extremes, measured.
 !! Six parts: long run (with the growth of round-off), tiny steps, high orders, large
 !! steps, stiff springs, near-singular constraints. Markdown to the output unit, progress to
 !! the error unit. The studies themselves live in holosym_extremes.
@@ -37,6 +37,13 @@ module holosym_cli_extremes
         logical :: quick = .false. !! --quick given
         logical :: help = .false.  !! --help given
     end type extremes_options_t
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
 
 contains
 
@@ -649,3 +656,11 @@ contains
     end subroutine report_near
 
 end module holosym_cli_extremes
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_extremes) holosym_cli_extremes_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_extremes_app

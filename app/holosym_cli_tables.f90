@@ -17,7 +17,7 @@ module holosym_cli_tables
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
-    use holosym_cli_simulate, only: make_system, system_names
+    use holosym_systems, only: make_system, is_system_name, system_names, system_choices
     implicit none
     private
 
@@ -69,6 +69,13 @@ module holosym_cli_tables
         real(wp) :: seconds = 0           !! wall time
         type(study_settings_t) :: settings
     end type tables_result_t
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
 
 contains
 
@@ -124,9 +131,9 @@ contains
                 select case (name)
                 case ("--system")
                     options%system = value
-                    if (.not. any(system_names == value)) call fail(status, &
-                        "option --system: unknown system '" // value // &
-                        "'; choose pendulum, linkage or planar")
+                    if (.not. is_system_name(value)) call fail(status, &
+                        "option --system: unknown system '" // value // "'; choose " // &
+                        system_choices)
                 case ("--T")
                     call parse_real(name, value, options%span, status)
                     if (status%ok() .and. .not. options%span > 0) call fail(status, &
@@ -589,3 +596,11 @@ contains
     end subroutine tables_command
 
 end module holosym_cli_tables
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_tables) holosym_cli_tables_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_tables_app

@@ -17,7 +17,7 @@ module holosym_cli_bench
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
-    use holosym_cli_simulate, only: make_system
+    use holosym_systems, only: make_system, system_choices
     implicit none
     private
 
@@ -55,6 +55,13 @@ module holosym_cli_bench
         logical :: per_step = .true.                 !! run the per-step comparison
         logical :: help = .false.                    !! --help given
     end type bench_options_t
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
 
 contains
 
@@ -166,7 +173,7 @@ contains
             if (comma > 0) last = first + comma - 2
             if (.not. any(bench_systems == list(first:last))) then
                 call fail(status, "option --systems: unknown system '" // list(first:last) // &
-                    "'; choose pendulum, linkage or planar")
+                    "'; choose " // system_choices)
                 return
             end if
             if (comma == 0) exit
@@ -723,3 +730,11 @@ contains
     end subroutine bench_command
 
 end module holosym_cli_bench
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_bench) holosym_cli_bench_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_bench_app

@@ -2,8 +2,8 @@
 !! its initial state and write the trajectory as CSV.
 !!
 !! Parsing (`parse_simulate_options`) and running (`run_simulate`) are separate procedures
-!! that return a status instead of stopping, so both can be tested in-process;
-!! `simulate_command` combines them and turns the outcome into an exit code.
+!! that return a status instead of stopping; `simulate_command` combines them and turns the
+!! outcome into an exit code.
 module holosym_cli_simulate
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
@@ -13,7 +13,7 @@ module holosym_cli_simulate
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_manifold, only: manifold_residuals
-    use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
+    use holosym_systems, only: make_system, is_system_name, system_names, system_choices
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
@@ -22,12 +22,7 @@ module holosym_cli_simulate
 
     public :: simulate_config_t, simulate_summary_t
     public :: parse_simulate_options, run_simulate, simulate_command, simulate_help
-    public :: csv_header, make_system, system_names
-
-    !> Names accepted by `--system`: the spherical pendulum (paper Example 1), the
-    !! spring-linkage mechanism (Example 2) and the planar pendulum.
-    character(len=*), parameter :: system_names(*) = [character(len=8) :: &
-        "pendulum", "linkage", "planar"]
+    public :: csv_header
 
     !> Default degree M of the displacement polynomial.
     integer, parameter :: default_order_m = 2
@@ -61,8 +56,9 @@ module holosym_cli_simulate
         integer :: steps = 0
         !> Write a row every `every` steps (t = 0 and the last step always).
         integer :: every = default_every
-        !> The plain path (--plain): full Newton with the working-precision LU and no speed
-        !! options; the same results to round-off, many times slower.
+        !> The plain path (--plain): the general scheme by full Newton with the
+        !! working-precision LU and no speed options; the same results to round-off, many
+        !! times slower.
         logical :: plain = .false.
         !> Output file; empty for the output unit given to `run_simulate`.
         character(len=:), allocatable :: output
@@ -117,6 +113,13 @@ module holosym_cli_simulate
         procedure :: observe => csv_writer_observe
     end type csv_writer
 
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
 contains
 
     !> The text of `holosym simulate --help`.
@@ -142,7 +145,8 @@ contains
             "  --every INT    write a row every INT steps, >= 1; the rows at t = 0 and", &
             "                 after the last step are always written         [1]", &
             "  --output FILE  write the CSV to FILE instead of standard output", &
-            "  --plain        full Newton with the real128 LU, none of the speed options", &
+            "  --plain        the general scheme (momenta as unknowns) by full Newton with", &
+            "                 the real128 LU, none of the speed options", &
             "                 (simplified Newton, real64 LU and pre-solve, first-order", &
             "                 increments): the same states to round-off, many times slower", &
             "  -h, --help     show this help", &
@@ -248,11 +252,11 @@ contains
         status%message = ""
         select case (name)
         case ("--system")
-            if (any(system_names == value)) then
+            if (is_system_name(value)) then
                 config%system = value
             else
                 call fail(status, "option --system: unknown system '" // value // &
-                    "'; choose pendulum, linkage or planar")
+                    "'; choose " // system_choices)
             end if
         case ("--M", "--m")
             call parse_integer(name, value, config%order_m, status)
@@ -309,41 +313,6 @@ contains
         end if
     end subroutine resolve_steps
 
-    !> The system called `name` (see `system_names`) and its initial state.
-    !! Fails with HOLOSYM_INVALID_ARGUMENT for an unknown name.
-    subroutine make_system(name, sys, q, p, status)
-        character(len=*), intent(in) :: name  !! system name
-        class(constrained_hamiltonian), allocatable, intent(out) :: sys !! the system
-        real(wp), allocatable, intent(out) :: q(:) !! initial coordinates (n)
-        real(wp), allocatable, intent(out) :: p(:) !! initial momenta (n)
-        type(holosym_status_t), intent(out) :: status !! outcome
-        type(spherical_pendulum) :: sphere
-        type(spring_linkage) :: linkage
-        type(planar_pendulum) :: planar
-
-        status%code = HOLOSYM_SUCCESS
-        status%message = ""
-        select case (name)
-        case ("pendulum")
-            sphere = spherical_pendulum()
-            allocate (q(sphere%n), p(sphere%n))
-            call sphere%initial_state(q, p)
-            allocate (sys, source=sphere)
-        case ("linkage")
-            linkage = spring_linkage()
-            allocate (q(linkage%n), p(linkage%n))
-            call linkage%initial_state(q, p)
-            allocate (sys, source=linkage)
-        case ("planar")
-            planar = planar_pendulum()
-            allocate (q(planar%n), p(planar%n))
-            call planar%initial_state(q, p)
-            allocate (sys, source=planar)
-        case default
-            call fail(status, "unknown system '" // name // "'")
-        end select
-    end subroutine make_system
-
     !> The CSV header for n coordinates and m constraints, e.g. for n = 3, m = 1:
     !! `t,q1,q2,q3,p1,p2,p3,lambda1,H,energy_error,constraint_residual,velocity_residual,`
     !! `newton_iterations`.
@@ -387,14 +356,15 @@ contains
 
         call make_system(config%system, sys, q, p, status)
         if (.not. status%ok()) return
-        call integrator%init(sys, config%order_m, config%order_n, config%gauss_points, status)
-        if (.not. status%ok()) return
         if (config%plain) then
+            integrator%structured = .false.
             integrator%newton%simplified = .false.
             integrator%newton%presolve = .false.
             integrator%linear_solver = "native"
             integrator%linear_increments = .false.
         end if
+        call integrator%init(sys, config%order_m, config%order_n, config%gauss_points, status)
+        if (.not. status%ok()) return
         unit = out_unit
         if (len(config%output) > 0) then
             open (newunit=unit, file=config%output, status="replace", action="write", &
@@ -602,3 +572,11 @@ contains
     end subroutine simulate_command
 
 end module holosym_cli_simulate
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_simulate) holosym_cli_simulate_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_simulate_app

@@ -1,7 +1,7 @@
-!> Measurements at the extremes behind `holosym extremes` (issue 4): long runs and the
-!! growth of round-off, tiny steps, high orders, large steps, stiff springs and
-!! near-singular constraints. Each study fills a result type; the command formats them and
-!! the test suite runs shortened versions (`extremes_settings(quick=.true.)` or smaller).
+!> Measurements at the extremes behind `holosym extremes`: long runs and the growth of
+!! round-off, tiny steps, high orders, large steps, stiff springs and near-singular
+!! constraints. Each study fills a result type, which the command formats;
+!! `extremes_settings(quick=.true.)` gives the shortened sizes of `extremes --quick`.
 !!
 !! Error measures: the relative energy error |H - H0| / |H0| (the paper's), the constraint
 !! residual max |phi| at the displacement nodes (from the step diagnostics) and, for the
@@ -25,6 +25,7 @@ module holosym_extremes
     use holosym_scheme, only: discrete_scheme
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default
     use holosym_projection, only: project_to_manifold
+    use holosym_systems, only: make_system
     implicit none
     private
 
@@ -45,7 +46,7 @@ module holosym_extremes
     !> The paper's best low-order scheme N = M - 1 = G - 2 = 1 and its Fig. 1 step h = 1/8.
     integer, parameter, public :: paper_order_m = 2, paper_order_n = 1, paper_gauss = 3
     real(wp), parameter, public :: paper_step = 0.125_wp
-    !> Largest M of the high-order study: the issue's range (G = 16 Gauss points).
+    !> Largest M of the high-order study (G = 16 Gauss points).
     integer, parameter, public :: max_study_order = 15
     !> Errors at or below this are round-off, not truncation: 2**20 epsilon (2.0e-28),
     !! the round-off of a few thousand steps with some margin (as in the tables command).
@@ -227,6 +228,13 @@ module holosym_extremes
     contains
         procedure :: observe => monitor_observe
     end type run_monitor
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
 
 contains
 
@@ -918,11 +926,16 @@ contains
         integer(int64) :: start
 
         start = clock_now()
-        call paper_system(system, sys, q0, p0)
         cell%system = system
         cell%order_m = order_m
         cell%order_n = order_m - 1
         cell%gauss_points = order_m + 1
+        call make_system(system, sys, q0, p0, fail_status)
+        if (.not. fail_status%ok()) then
+            cell%step_fail_code = fail_status%code
+            cell%step_fail_message = fail_status%message
+            return
+        end if
         call search_largest_step(sys, q0, p0, order_m, .false., cell%h_step, cell%h_step_fail, &
                                  fail_status, steps_done, clean, capped)
         cell%step_fail_code = fail_status%code
@@ -1051,26 +1064,6 @@ contains
                 .and. scaled_p <= manifold_tolerance_default
         end if
     end subroutine large_step_trial
-
-    !> The paper system `name` (pendulum or linkage) and its initial state.
-    subroutine paper_system(name, sys, q0, p0)
-        character(len=*), intent(in) :: name
-        class(constrained_hamiltonian), allocatable, intent(out) :: sys
-        real(wp), allocatable, intent(out) :: q0(:), p0(:)
-        type(spherical_pendulum) :: sphere
-        type(spring_linkage) :: linkage
-        if (name == "linkage") then
-            linkage = spring_linkage()
-            allocate (q0(linkage%n), p0(linkage%n))
-            call linkage%initial_state(q0, p0)
-            allocate (sys, source=linkage)
-        else
-            sphere = spherical_pendulum()
-            allocate (q0(sphere%n), p0(sphere%n))
-            call sphere%initial_state(q0, p0)
-            allocate (sys, source=sphere)
-        end if
-    end subroutine paper_system
 
     ! ------------------------------------------------------------------ 5. stiff
 
@@ -1207,3 +1200,11 @@ contains
     end subroutine run_near_singular_study
 
 end module holosym_extremes
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_extremes) holosym_extremes_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_extremes_app

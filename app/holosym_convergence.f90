@@ -62,6 +62,13 @@ module holosym_convergence
         real(wp) :: seconds = 0
     end type order_cell_t
 
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
 contains
 
     !> The paper's law for the energy order: min(2M, 2N) if M /= N+1, else min(2M, 2N+2).
@@ -282,3 +289,11 @@ contains
     end function seconds_text
 
 end module holosym_convergence
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_convergence) holosym_convergence_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_convergence_app

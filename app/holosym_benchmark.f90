@@ -74,6 +74,13 @@ module holosym_benchmark
         integer :: progress_unit = -1
     end type bench_settings_t
 
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
 contains
 
     !> T of the benchmark for a system.
@@ -431,3 +438,11 @@ contains
     end subroutine sweep
 
 end module holosym_benchmark
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_benchmark) holosym_benchmark_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_benchmark_app

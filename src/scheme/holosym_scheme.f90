@@ -22,19 +22,15 @@ module holosym_scheme
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
         difference_constraint_hessian
     use holosym_newton, only: nonlinear_system, all_finite, all_finite_matrix
-    use holosym_scheme_kernels_wp, only: scheme_tables_wp => scheme_tables, &
-        step_constants_wp => step_constants, assembly_hessians_wp => assembly_hessians, &
-        assemble_blocks_wp => assemble_blocks, set_step_constants_wp => set_step_constants, &
-        allocate_step_constants_wp => allocate_step_constants, gauss_state_wp => gauss_state, &
-        allocate_hessians_wp => allocate_hessians, &
-        d_sums_wp => d_sums, momentum_rows_wp => momentum_rows, &
-        entry_zero, entry_constant, entry_varying
-    use holosym_scheme_kernels_dp, only: scheme_tables_dp => scheme_tables, &
-        step_constants_dp => step_constants, assembly_hessians_dp => assembly_hessians, &
-        assemble_blocks_dp => assemble_blocks, set_step_constants_dp => set_step_constants, &
-        allocate_step_constants_dp => allocate_step_constants, gauss_state_dp => gauss_state, &
-        allocate_hessians_dp => allocate_hessians, &
-        d_sums_dp => d_sums, momentum_rows_dp => momentum_rows
+    ! The kernels of both kinds, under generic names (the type of the first argument
+    ! selects the instance): working precision and real64.
+    use holosym_scheme_kernels_wp, only: scheme_tables_wp, step_constants_wp, &
+        assembly_hessians_wp, entry_zero, entry_constant, entry_varying, assemble_blocks, &
+        set_step_constants, allocate_step_constants, allocate_hessians, gauss_state, d_sums, &
+        momentum_rows
+    use holosym_scheme_kernels_dp, only: scheme_tables_dp, step_constants_dp, &
+        assembly_hessians_dp, assemble_blocks, set_step_constants, allocate_step_constants, &
+        allocate_hessians, gauss_state, d_sums, momentum_rows
     implicit none
     private
 
@@ -272,7 +268,7 @@ contains
 
         ! Quadrature sums of the parts that do not involve the user's functions.
         call scheme_sums(self, self%tab)
-        call allocate_step_constants_wp(self%step, order_m, order_n, gauss_points, n)
+        call allocate_step_constants(self%step, order_m, order_n, gauss_points, n)
         allocate (self%extrap_q(0:order_m, 0:order_m), self%extrap_p(0:order_n, 0:order_n))
         do k = 0, order_m
             self%extrap_q(k, :) = lagrange_values(self%disp_nodes, 1 + self%disp_nodes(k))
@@ -282,8 +278,8 @@ contains
         end do
 
         call lowered_sums(self%tab, self%low%tab)
-        call allocate_step_constants_dp(self%low%step, order_m, order_n, gauss_points, n)
-        call allocate_hessians_dp(self%low%hess, n, m, order_m, gauss_points, self%nx)
+        call allocate_step_constants(self%low%step, order_m, order_n, gauss_points, n)
+        call allocate_hessians(self%low%hess, n, m, order_m, gauss_points, self%nx)
         allocate (self%low%phi_jac(m, n, 0:order_m), self%low%x(self%nx), self%low%q(n), &
                   self%low%p(n), self%low%hq(n, gauss_points), self%low%hp(n, gauss_points), &
                   self%low%d(n, 0:order_m), self%low%f(self%nx))
@@ -294,7 +290,7 @@ contains
         allocate (self%p_gauss(n, gauss_points), self%hq_gauss(n, gauss_points))
         allocate (self%hp_gauss(n, gauss_points), self%phi_jac(m, n, 0:order_m))
         allocate (self%velocity(n), self%q_work(n), self%phi_work(m))
-        call allocate_hessians_wp(self%hess, n, m, order_m, gauss_points, self%nx)
+        call allocate_hessians(self%hess, n, m, order_m, gauss_points, self%nx)
         allocate (self%end_hqq(n, n), self%patterns(n, n, 3))
         allocate (self%x_work(self%nx), self%f_plus(self%nx), self%f_minus(self%nx))
         self%cache_valid = .false.
@@ -329,11 +325,11 @@ contains
         real(wp), intent(in) :: pa(:) !! start momenta (n)
         real(wp), intent(in) :: h     !! step size
         self%sys => sys
-        call set_step_constants_wp(self%tab, self%step, qa, pa, h)
+        call set_step_constants(self%tab, self%step, qa, pa, h)
         ! real64 copies in the lowered workspace (free between solves): no temporaries.
         self%low%q = real(qa, dp)
         self%low%p = real(pa, dp)
-        call set_step_constants_dp(self%low%tab, self%low%step, self%low%q, self%low%p, &
+        call set_step_constants(self%low%tab, self%low%step, self%low%q, self%low%p, &
                                    real(h, dp))
         self%cache_valid = .false.
         self%step_hessians = .false.
@@ -394,14 +390,14 @@ contains
         end if
         self%cache_valid = .false.
         do g = 1, self%gauss_points
-            call gauss_state_wp(self%tab, self%step, g, self%order_m, self%order_n, self%n, x, &
+            call gauss_state(self%tab, self%step, g, self%order_m, self%order_n, self%n, x, &
                                 self%q_gauss(:, g), self%p_gauss(:, g))
             call gauss_gradients(self, g, status)
             if (.not. status%ok()) return
         end do
         call node_jacobians(self, x, status)
         if (.not. status%ok()) return
-        call d_sums_wp(self%tab, self%step, self%order_m, self%order_n, self%n, self%m, x, &
+        call d_sums(self%tab, self%step, self%order_m, self%order_n, self%n, self%m, x, &
                        self%hq_gauss, self%phi_jac, self%d_values)
         self%cached_x = x
         self%cache_valid = .true.
@@ -459,7 +455,7 @@ contains
         associate (low => self%low)
             low%x = real(x, dp)
             do g = 1, self%gauss_points
-                call gauss_state_dp(low%tab, low%step, g, self%order_m, self%order_n, self%n, &
+                call gauss_state(low%tab, low%step, g, self%order_m, self%order_n, self%n, &
                                     low%x, low%q, low%p)
                 self%q_gauss(:, g) = real(low%q, wp)
                 self%p_gauss(:, g) = real(low%p, wp)
@@ -471,7 +467,7 @@ contains
             call node_jacobians(self, x, status)
             if (.not. status%ok()) return
             low%phi_jac = real(self%phi_jac, dp)
-            call d_sums_dp(low%tab, low%step, self%order_m, self%order_n, self%n, self%m, &
+            call d_sums(low%tab, low%step, self%order_m, self%order_n, self%n, self%m, &
                            low%x, low%hq, low%phi_jac, low%d)
             self%d_values = real(low%d, wp)
         end associate
@@ -490,7 +486,7 @@ contains
         self%counters%residuals = self%counters%residuals + 1
         call evaluate(self, x, status)
         if (.not. status%ok()) return
-        call momentum_rows_wp(self%tab, self%step, self%order_m, self%order_n, self%n, x, &
+        call momentum_rows(self%tab, self%step, self%order_m, self%order_n, self%n, x, &
                               self%hp_gauss, self%d_values, f)
         call constraint_rows(self, f, status)
     end subroutine scheme_residual
@@ -509,7 +505,7 @@ contains
         call evaluate_lowered(self, x, status)
         if (.not. status%ok()) return
         associate (low => self%low)
-            call momentum_rows_dp(low%tab, low%step, self%order_m, self%order_n, self%n, &
+            call momentum_rows(low%tab, low%step, self%order_m, self%order_n, self%n, &
                                   low%x, low%hp, low%d, low%f)
             last_row = (self%order_m + self%order_n + 1) * self%n
             f(1:last_row) = real(low%f(1:last_row), wp)
@@ -646,7 +642,7 @@ contains
         type(holosym_status_t), intent(out) :: status
         call jacobian_inputs(self, x, status)
         if (.not. status%ok()) return
-        call assemble_blocks_wp(self%tab, self%hess, self%patterns, self%order_m, &
+        call assemble_blocks(self%tab, self%hess, self%patterns, self%order_m, &
                                 self%order_n, self%n, self%m, self%step%h, &
                                 x(mu_at(self, 0) + 1:), self%phi_jac, jac)
     end subroutine assemble_jacobian
@@ -672,7 +668,7 @@ contains
             end if
             ! The scaled multipliers in real64, in the lowered residual's scratch vector.
             low%f(1:self%nx - mu_at(self, 0)) = real(x(mu_at(self, 0) + 1:), dp)
-            call assemble_blocks_dp(low%tab, low%hess, self%patterns, self%order_m, &
+            call assemble_blocks(low%tab, low%hess, self%patterns, self%order_m, &
                                     self%order_n, self%n, self%m, low%step%h, low%f, &
                                     low%phi_jac, jac)
         end associate

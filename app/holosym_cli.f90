@@ -16,6 +16,13 @@ module holosym_cli
 
     public :: cli_run, cli_help
 
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
 contains
 
     !> The text of `holosym --help`.
@@ -92,3 +99,11 @@ contains
     end subroutine run_command
 
 end module holosym_cli
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli) holosym_cli_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_app

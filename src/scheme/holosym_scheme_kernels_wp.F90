@@ -1,0 +1,19 @@
+!> The discrete scheme's kernels in working precision: the template
+!! include/holosym_scheme_kernels.inc with rk = wp, for the residual of the final Newton
+!! iterations and the full-accuracy Jacobian of the plain path.
+module holosym_scheme_kernels_wp
+    use holosym_kinds, only: rk => wp
+    implicit none
+    private
+
+    !> SHA-256 of include/holosym_scheme_kernels.inc as compiled into this module
+    !! (tools/include_digest.sh keeps it current; the test suite compares it with the file).
+    character(len=*), parameter, public :: template_sha256 = &
+        "a228f834904786a0b2ab2be32875dba4f979b2bfcfc00231749f426c598c55c0"
+
+#define SCHEME_TABLES scheme_tables_wp
+#define STEP_CONSTANTS step_constants_wp
+#define ASSEMBLY_HESSIANS assembly_hessians_wp
+#include "holosym_scheme_kernels.inc"
+
+end module holosym_scheme_kernels_wp
