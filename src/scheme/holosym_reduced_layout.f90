@@ -182,7 +182,6 @@ contains
         ! Drop duplicates within each row (rows are short).
         allocate (list(size(from)))
         kept = 0
-        fill(1) = 1
         do r = 1, rows
             fill(r) = kept + 1
             do e = start(r), start(r + 1) - 1
