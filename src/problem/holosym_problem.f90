@@ -21,7 +21,7 @@
 !! With both patterns declared, the step's linear algebra is banded (after a reordering
 !! of the unknowns) and its cost grows linearly with the size of a chain-like system.
 module holosym_problem
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     implicit none
     private
 
@@ -62,6 +62,9 @@ module holosym_problem
         procedure :: constraint_jacobian_values => gathered_constraint_values
         !> Optional nonzero pattern of the Hessian of U (default: dense).
         procedure :: potential_sparsity => dense_potential_sparsity
+        !> dH/dq in real64 arithmetic, for the reduced step's first (real64) Newton
+        !! iterations (optional; default: `dh_dq` in working precision, rounded).
+        procedure :: dh_dq_double => rounded_dh_dq
     end type constrained_hamiltonian
 
     abstract interface
@@ -147,6 +150,21 @@ contains
             values(e) = jacobian(rows(e), columns(e))
         end do
     end subroutine gathered_constraint_values
+
+    !> Default `dh_dq_double`: `dh_dq` at the arguments in working precision, rounded to
+    !! real64. A system whose dH/dq involves elementary functions overrides it with the same
+    !! formula in real64 arithmetic: a real128 cos costs about 300 times a real64 one, and
+    !! the reduced step's real64 iterations need only real64 accuracy (the final iterations
+    !! always use `dh_dq`).
+    subroutine rounded_dh_dq(self, q, p, gradient)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        real(dp), intent(in) :: q(:)         !! coordinates (n)
+        real(dp), intent(in) :: p(:)         !! momenta (n)
+        real(dp), intent(out) :: gradient(:) !! dH/dq (n)
+        real(wp) :: g(size(q))
+        call self%dh_dq(real(q, wp), real(p, wp), g)
+        gradient = real(g, dp)
+    end subroutine rounded_dh_dq
 
     !> Default `potential_sparsity`: every second derivative of U may be nonzero. An
     !! override returns the pairs (i, k) with d2U/dq_i dq_k possibly nonzero (either
