@@ -16,12 +16,9 @@ module holosym_problem
 
     public :: constrained_hamiltonian, difference_hessian, difference_constraint_hessian
 
-    !> Relative step of the default central differences: epsilon**(1/3) balances
-    !! truncation (step**2) against round-off (epsilon/step).
-    real(wp), parameter :: difference_step = epsilon(1.0_wp)**(1.0_wp / 3)
 
     !> Abstract constrained Hamiltonian system. Extend it and implement the deferred bindings.
-    type, abstract, public :: constrained_hamiltonian
+    type, abstract :: constrained_hamiltonian
         !> Number of coordinates q (and momenta p), n >= 1.
         integer :: n = 0
         !> Number of holonomic constraints, 0 <= m < n.
@@ -81,6 +78,13 @@ module holosym_problem
 
 contains
 
+    !> Relative step of the default central differences: epsilon**(1/3) balances
+    !! truncation (step**2) against round-off (epsilon/step). A function rather than a
+    !! named constant because not every compiler folds real128 powers.
+    pure real(wp) function difference_step()
+        difference_step = epsilon(1.0_wp)**(1.0_wp / 3)
+    end function difference_step
+
     !> Default second derivatives of H by central differences of `dh_dq` and `dh_dp`:
     !! `hqq(i,k) = d2H/dq_i dq_k`, `hqp(i,k) = d2H/dq_i dp_k`, `hpp(i,k) = d2H/dp_i dp_k`.
     !! Override it with exact derivatives for speed (6n gradient calls are saved per call).
@@ -97,7 +101,7 @@ contains
 
         do k = 1, size(q)
             ! Differencing the representable neighbours keeps the divisor exact.
-            step = difference_step * max(1.0_wp, abs(q(k)))
+            step = difference_step() * max(1.0_wp, abs(q(k)))
             upper = q(k) + step
             lower = q(k) - step
             shifted = q
@@ -108,7 +112,7 @@ contains
             hqq(:, k) = (plus - minus) / (upper - lower)
         end do
         do k = 1, size(p)
-            step = difference_step * max(1.0_wp, abs(p(k)))
+            step = difference_step() * max(1.0_wp, abs(p(k)))
             upper = p(k) + step
             lower = p(k) - step
             shifted = p
@@ -136,7 +140,7 @@ contains
         integer :: k, l
 
         do k = 1, size(q)
-            step = difference_step * max(1.0_wp, abs(q(k)))
+            step = difference_step() * max(1.0_wp, abs(q(k)))
             upper = q(k) + step
             lower = q(k) - step
             shifted = q

@@ -38,7 +38,7 @@ module holosym_scheme
     implicit none
     private
 
-    public :: discrete_scheme, unknown_count
+    public :: unknown_count
 
     !> Jacobian assembled from the second derivatives of H and phi (default).
     integer, parameter, public :: JACOBIAN_ASSEMBLED = 1
@@ -54,8 +54,6 @@ module holosym_scheme
     !! delta (delta + d) <= this (relative to the squared size of the state): the neglected
     !! terms, of order delta^2 and delta d, are then below epsilon.
     real(wp), parameter :: linear_update_limit = epsilon(1.0_wp) / 16
-    !> Relative step of the residual differences: epsilon**(1/3).
-    real(wp), parameter :: residual_step = epsilon(1.0_wp)**(1.0_wp / 3)
 
     !> Counts of the user-function calls made by a scheme (cumulative since `init`).
     type, public :: scheme_counters_t
@@ -282,6 +280,7 @@ contains
     !> Deallocate every array component (before a new `init`).
     subroutine release(self)
         class(discrete_scheme), intent(inout) :: self
+        type(lowered_tables_t) :: empty_lowered ! every component unallocated
         if (allocated(self%disp_nodes)) deallocate (self%disp_nodes, self%lobatto_weights, &
             self%mom_nodes, self%gauss_nodes, self%gauss_weights, self%b, self%a, self%c)
         if (allocated(self%extrap_q)) deallocate (self%extrap_q, self%extrap_p)
@@ -294,7 +293,7 @@ contains
             self%phi_jac, self%velocity, self%q_work, self%phi_work)
         if (allocated(self%end_hqq)) deallocate (self%end_hqq, self%patterns, self%x_work, &
             self%f_plus, self%f_minus)
-        self%low = lowered_tables_t()
+        self%low = empty_lowered
         self%cache_valid = .false.
     end subroutine release
 
@@ -563,8 +562,11 @@ contains
         real(wp), intent(in) :: x(:)
         real(wp), intent(out) :: jac(:, :)
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: upper, lower
+        real(wp) :: upper, lower, residual_step
         integer :: j
+        ! Relative step epsilon**(1/3) (computed here: not every compiler folds real128
+        ! powers in a named constant).
+        residual_step = epsilon(1.0_wp)**(1.0_wp / 3)
         self%x_work = x
         do j = 1, self%nx
             upper = x(j) + residual_step * max(1.0_wp, abs(x(j)))

@@ -124,6 +124,15 @@ contains
         real(wp), intent(in) :: value !! value to format
         character(len=:), allocatable :: text
         character(len=48) :: buffer
+        ! Non-finite values spelled alike by every compiler.
+        if (value /= value) then
+            text = "NaN"
+            return
+        else if (abs(value) > huge(value)) then
+            text = merge("Infinity ", "-Infinity", value > 0)
+            text = trim(text)
+            return
+        end if
         ! A four-digit exponent field: real128 exponents reach 4932.
         write (buffer, '(es16.5e4)') value
         text = trim(adjustl(buffer))
