@@ -42,10 +42,9 @@ module test_extremes
     !> A measured order agrees with the law 2M within this distance (as the tables command).
     real(wp), parameter :: order_agreement = 0.3_wp
     !> Largest decimal exponent e of the randomized off-manifold offsets 10**(-e): the offset
-    !! must stay 1e5 times above the manifold tolerance 1024 eps (20 in real128 as before,
-    !! 7 in real64, where 1e-20 would be far below round-off).
-    integer, parameter :: max_offset_exponent = &
-        min(20, int(-log10(1.0e5_wp * 1024 * epsilon(1.0_wp))))
+    !! must stay 1e5 times above the manifold tolerance 1024 eps, about 10**(8 - precision)
+    !! (20 in real128, 7 in real64, where 1e-20 would be far below round-off).
+    integer, parameter :: max_offset_exponent = min(20, precision(1.0_wp) - 8)
     !> Cases of the randomized test (the issue asks for at least 10,000).
     integer, parameter :: random_cases = 10000
     !> Every status code the library documents (holosym_status).
@@ -709,7 +708,7 @@ contains
         type(holosym_status_t) :: status
         !> The nearly dependent case: 1e-8 in real128; the Gram pivot ~delta**2 must stay
         !! well above n eps, so real64 uses eps**(1/4) = 1.2e-4.
-        real(wp), parameter :: delta_near = max(1.0e-8_wp, eps**0.25_wp)
+        real(wp), parameter :: delta_near = max(1.0e-8_wp, sqrt(sqrt(eps)))
         call run_near_singular_study([1.0e-2_wp, delta_near, 0.0_wp], 2, 1.0_wp / 64, cells, &
                                      status)
         call check_status_code(error, status%code, HOLOSYM_SUCCESS, "near-singular study")
