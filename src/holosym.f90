@@ -2,6 +2,7 @@
 !! constraints, in quadruple precision. `use holosym` gives the whole public API.
 module holosym
     use holosym_kinds, only: wp, dp
+    use holosym_release, only: holosym_version
     use holosym_status, only: holosym_status_t, status_code_name, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
