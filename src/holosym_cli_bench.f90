@@ -583,7 +583,10 @@ contains
             "Newton, mixed-precision LU, real64 pre-solve in the real128 build, exact " // &
             "Hessians, extrapolated guess). RATTLE: " // &
             "composed inside holosym (triple jump or Suzuki), same problem interface. " // &
-            "'table' is the competitor's (GNI_COMP) time from the issue; 'x' = table / holosym."
+            "'table': CPU seconds of the cheapest configuration of the competitor " // &
+            "GNI_COMP (Hairer's composition code) from a fixed table given with the " // &
+            "benchmark's specification, not measured in this run (its machine and command " // &
+            "are not known), so 'x table' = table / holosym is indicative only."
         do precision = 2, 1, -1
             prec = merge("real128", "real64 ", precision == 2)
             if (.not. any(rows%precision == prec)) cycle
