@@ -1,4 +1,4 @@
-!> The `extremes` command: numerical stability at the extremes (issue 4), measured.
+!> The `extremes` command: numerical stability at the extremes, measured.
 !! Six parts: long run (with the growth of round-off), tiny steps, high orders, large
 !! steps, stiff springs, near-singular constraints. Markdown to the output unit, progress to
 !! the error unit. The studies themselves live in holosym_extremes.

@@ -1,4 +1,4 @@
-!> Measurements at the extremes behind `holosym extremes` (issue 4): long runs and the
+!> Measurements at the extremes behind `holosym extremes`: long runs and the
 !! growth of round-off, tiny steps, high orders, large steps, stiff springs and
 !! near-singular constraints. Each study fills a result type; the command formats them and
 !! the test suite runs shortened versions (`extremes_settings(quick=.true.)` or smaller).
@@ -44,7 +44,7 @@ module holosym_extremes
     !> The paper's best low-order scheme N = M - 1 = G - 2 = 1 and its Fig. 1 step h = 1/8.
     integer, parameter, public :: paper_order_m = 2, paper_order_n = 1, paper_gauss = 3
     real(wp), parameter, public :: paper_step = 0.125_wp
-    !> Largest M of the high-order study: the issue's range (G = 16 Gauss points).
+    !> Largest M of the high-order study (G = 16 Gauss points).
     integer, parameter, public :: max_study_order = 15
     !> Errors at or below this are round-off, not truncation: 2**20 epsilon (2.0e-28),
     !! the round-off of a few thousand steps with some margin (as in the tables command).

@@ -1,4 +1,5 @@
-!> Newton's method for a square nonlinear system F(x) = 0 in working precision.
+!> category: internal module (use holosym)
+!! Newton's method for a square nonlinear system F(x) = 0 in working precision.
 !!
 !! The system is an object extending `nonlinear_system` (residual and Jacobian). Each
 !! iteration equilibrates the rows of the Jacobian, factors it with `lu_factor` and
@@ -54,15 +55,15 @@ module holosym_newton
     !! 1.6e-10: well above the real64 round-off of the lowered residual (cond * 1e-16, where
     !! its iterations stagnate and refactor in vain), and close enough that real64 factors
     !! taken there finish in two working-precision residuals (error e -> kappa e^2 +
-    !! 1e-16 e). Measured (instructions per step, six bench configurations): 0-48 % fewer
-    !! than stopping at 64 real64 epsilons; 1e-8 and 1e-9 gained no more ...
-    !! (eps**(5/8) written with square roots, which every compiler folds in real128.)
+    !! 1e-16 e); stopping nearer the real64 round-off costs more iterations, stopping
+    !! earlier gains nothing. (eps**(5/8) written with square roots, which every compiler
+    !! folds in real128.)
     real(wp), parameter :: lowered_tolerance = sqrt(real(epsilon(1.0_dp), wp)) * &
         sqrt(sqrt(sqrt(real(epsilon(1.0_dp), wp))))
     !> ... or stop decreasing below this one (real64 round-off of the lowered residual).
     real(wp), parameter :: lowered_floor = sqrt(real(epsilon(1.0_dp), wp))
-    !> Cost of a lowered residual relative to a working-precision one (measured on the
-    !! models, roughly), for the refactoring decision of the pre-solve.
+    !> Cost of a lowered residual relative to a working-precision one (roughly, on the
+    !! example systems), for the refactoring decision of the pre-solve.
     real(wp), parameter :: lowered_cost_ratio = 0.25_wp
 
     !> A square nonlinear system: extend it and implement `residual` and `jacobian`.

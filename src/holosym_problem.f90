@@ -1,4 +1,5 @@
-!> The problem interface: a Hamiltonian system with holonomic constraints.
+!> category: internal module (use holosym)
+!! The problem interface: a Hamiltonian system with holonomic constraints.
 !!
 !! A user defines a system by extending `constrained_hamiltonian`, setting the sizes
 !! `n` (coordinates) and `m` (constraints), and implementing five procedures:

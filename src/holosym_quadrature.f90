@@ -1,4 +1,5 @@
-!> Gauss-Legendre and Gauss-Lobatto quadrature on [0, 1], computed in working precision.
+!> category: internal module (use holosym)
+!! Gauss-Legendre and Gauss-Lobatto quadrature on [0, 1], computed in working precision.
 !!
 !! Nodes are found by Newton's method on Legendre polynomials (three-term recurrence),
 !! never typed in, so they are accurate to working precision for any number of points.

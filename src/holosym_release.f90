@@ -1,4 +1,5 @@
-!> The release of the library: `holosym_version`, exported by the façade `holosym`.
+!> category: internal module (use holosym)
+!! The release of the library: `holosym_version`, exported by the façade `holosym`.
 !!
 !! This is the one place in the sources that names the version; it matches `version` in
 !! fpm.toml (which CMake reads too), and `make check-version` compares them.

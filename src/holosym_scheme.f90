@@ -1,6 +1,7 @@
-!> The discrete scheme of one step (q_a, p_a) -> (q_b, p_b) for given (M, N, G):
+!> category: internal module (use holosym)
+!! The discrete scheme of one step (q_a, p_a) -> (q_b, p_b) for given (M, N, G):
 !! precomputed quadrature and basis matrices, and the residual and Jacobian of the
-!! nonlinear system of method.md section 3.
+!! nonlinear system of docs/method.md, section 3.
 !!
 !! Unknowns x, in increments so that step results are summed without cancellation:
 !!   z_i = q_i - q_a (i = 1..M),  w_j = p_j - p_a (j = 0..N),  mu_k = h lambda_k (k = 0..M).
@@ -843,9 +844,9 @@ contains
         m = self%m
         if (h == h_prev) then
             ! Equal steps: precomputed rho_i(1 + d_k), chi_j(1 + c_l), no allocation. The
-            ! sums stay in working precision: summed in real64 (tried; 3-8 % fewer
-            ! instructions) the guess left a rounding component in Newton's last iterate
-            ! that doubled the round-off growth of L_z over 10^6 steps (extremes --part long).
+            ! sums stay in working precision although a guess needs less: a guess rounded
+            ! to real64 leaves a rounding component in Newton's last iterate, which makes
+            ! round-off grow faster over long runs (see docs/design.md).
             do k = 0, self%order_m
                 if (k >= 1) then
                     base = z_at(self, k)

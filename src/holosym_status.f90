@@ -1,4 +1,5 @@
-!> Status codes and the status object returned by every fallible public procedure.
+!> category: internal module (use holosym)
+!! Status codes and the status object returned by every fallible public procedure.
 !!
 !! Convention: 0 is success, a negative code is invalid input (or a user abort),
 !! a positive code is a numerical failure. Every public entry point takes an optional

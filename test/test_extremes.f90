@@ -1,6 +1,6 @@
-!> Tests of issue 4: the projection onto the constraint manifold, shortened versions of the
-!! six studies of `holosym extremes` (long run and round-off growth, tiny steps, high
-!! orders, large steps, stiff springs, near-singular constraints), the provably singular
+!> Tests of the stability studies: the projection onto the constraint manifold, shortened
+!! versions of the six studies of `holosym extremes` (long run and round-off growth, tiny
+!! steps, high orders, large steps, stiff springs, near-singular constraints), the provably singular
 !! family G <= N, the `extremes` command's options, and a randomized test of 10,000 valid
 !! and invalid parameter sets and states.
 module test_extremes
@@ -31,8 +31,8 @@ module test_extremes
     public :: extremes_tests
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
-    !> The issue's bound on the constraint residual of the long run: 5000 eps (9.6e-31 in
-    !! real128, within the issue's 1e-30; 1.1e-12 in real64).
+    !> Bound on the constraint residual of the long run: 5000 eps (9.6e-31 in real128,
+    !! 1.1e-12 in real64).
     real(wp), parameter :: constraint_bound = 5000 * eps
     !> "No drift": the max energy error of the whole run may exceed that of the early
     !! window by at most this factor (the error of a symplectic method is quasi-periodic).
@@ -45,7 +45,7 @@ module test_extremes
     !! must stay 1e5 times above the manifold tolerance 1024 eps, about 10**(8 - precision)
     !! (20 in real128, 7 in real64, where 1e-20 would be far below round-off).
     integer, parameter :: max_offset_exponent = min(20, precision(1.0_wp) - 8)
-    !> Cases of the randomized test (the issue asks for at least 10,000).
+    !> Cases of the randomized test.
     integer, parameter :: random_cases = 10000
     !> Every status code the library documents (holosym_status).
     integer, parameter :: documented_codes(*) = [HOLOSYM_INVALID_ORDER, &

@@ -15,12 +15,12 @@ module test_integrator
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
     !> Constraint residuals after a step must be at round-off: 5000 eps (9.6e-31 in real128,
-    !! within the issue's 1e-30; 1.1e-12 in real64).
+    !! 1.1e-12 in real64).
     real(wp), parameter :: constraint_bound = 5000 * eps
     !> Allowed deviation of a measured order from 2M.
     real(wp), parameter :: order_slack = 0.3_wp
     !> integrate and repeated step differ only in compensated-summation bits: 500 eps
-    !! (9.6e-32 in real128, within the former 1e-31).
+    !! (9.6e-32 in real128).
     real(wp), parameter :: driver_agreement = 500 * eps
     !> Base step of the order-8 energy test: real128 keeps 0.25; in real64 the errors at
     !! h = 0.25 sink to the round-off floor (~1e-15), so a larger step keeps them above

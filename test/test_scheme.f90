@@ -221,7 +221,7 @@ contains
 
     ! ------------------------------------------------------------------ counting
 
-    !> For M = 1..8, N = 0..8 and (n, m) of both paper systems: the rows of method.md
+    !> For M = 1..8, N = 0..8 and (n, m) of both paper systems: the rows of docs/method.md
     !! section 3, counted block by block, equal the unknowns, unknown_count and nx; the
     !! residual fills all nx rows and the Jacobian all nx x nx entries.
     subroutine equation_count_grid(error)

@@ -15,8 +15,8 @@ module test_speed
     private
     public :: speed_tests
 
-    !> Largest allowed difference between the states of two paths (issue requirement),
-    !! or, in a real64 build, its analogue 1e4 epsilon.
+    !> Largest allowed difference between the states of two paths: 1e-30, or, in a real64
+    !! build, its analogue 1e4 epsilon.
     real(wp), parameter :: same_results = max(1.0e-30_wp, 1.0e4_wp * epsilon(1.0_wp))
     !> Steps per comparison run and their size.
     integer, parameter :: run_steps = 12
