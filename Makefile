@@ -11,6 +11,8 @@
 #   make test64               the test suite in the real64 build (gfortran)
 #   make check-examples       every example prints what its header says
 #   make check-version        fpm.toml, holosym --version, CHANGELOG and CITATION agree
+#   make check-fpm-dependency a project with holosym as an fpm path dependency
+#   make profile              callgrind on an example (PROFILE_EXAMPLE=quickstart)
 # Documentation (each page regenerated from a command's output):
 #   make docs                 API pages with FORD (into build/doc), fails on any warning
 #   make docs-tables          docs/tables.md       (holosym tables, seconds)
@@ -39,7 +41,7 @@ CMAKE_DIR ?= build/cmake
 
 .PHONY: all deps test test64 tables bench pendulum linkage examples clean install \
 	check-install cmake-deps cmake-test flang-deps test-flang check-examples check-version \
-	docs docs-deps docs-tables docs-stability docs-performance
+	check-fpm-dependency profile docs docs-deps docs-tables docs-stability docs-performance
 
 all: test
 
@@ -91,6 +93,29 @@ check-examples: deps
 check-version: deps
 	$(FPM) build $(FPM_FLAGS)
 	@./tools/check-version.sh "$$($(FPM) run $(FPM_FLAGS) -- --version)"
+
+# A project that depends on holosym through fpm (path dependency), built and run: the
+# README's dependency snippet, with the quick start as its program.
+check-fpm-dependency: deps
+	rm -rf build/fpm-consumer && mkdir -p build/fpm-consumer/app
+	cp example/quickstart.f90 build/fpm-consumer/app/main.f90
+	printf '%s\n' 'name = "holosym_consumer"' '[dependencies]' \
+		'holosym = { path = "../.." }' > build/fpm-consumer/fpm.toml
+	cd build/fpm-consumer && $(FPM) build $(FPM_FLAGS) > build.log 2>&1 || \
+		{ cat build.log; exit 1; }
+	$(PYTHON) tools/check_examples.py --runner \
+		"sh -c 'cd build/fpm-consumer && $(FPM) run $(FPM_FLAGS)'" quickstart
+
+# ---------------------------------------------------------------- profiling
+
+PROFILE_EXAMPLE ?= quickstart
+# callgrind on an example built with -g; the top of callgrind_annotate.
+profile: deps
+	@command -v valgrind >/dev/null 2>&1 || ./tools/apt-install.sh valgrind
+	$(FPM) build $(FPM_FLAGS) --flag "-g"
+	$(FPM) run $(FPM_FLAGS) --flag "-g" --example $(PROFILE_EXAMPLE) --runner \
+		"valgrind --tool=callgrind --callgrind-out-file=build/callgrind.out"
+	callgrind_annotate build/callgrind.out | head -40
 
 # ---------------------------------------------------------------- install
 
@@ -175,7 +200,8 @@ docs: docs-deps
 docs-tables: deps
 	$(FPM) build $(FPM_FLAGS)
 	$(PYTHON) tools/docs_page.py docs/templates/tables.md docs/tables.md "make docs-tables" \
-		-- $(FPM) run $(FPM_FLAGS) -- tables
+		-- sh -c '$(FPM) run $(FPM_FLAGS) -- tables && \
+		$(FPM) run $(FPM_FLAGS) -- tables --system linkage'
 
 docs-stability: deps
 	$(FPM) build $(FPM_FLAGS)
