@@ -19,7 +19,8 @@ module test_bench
     public :: bench_tests
 
     !> The competitor's (GNI_COMP) real128 times for the spherical pendulum at 1e-10 and the
-    !! double time at 1e-10, as given in the issue (inputs of the summary, not its output).
+    !! double time at 1e-10, as in the fixed competitor table (inputs of the summary, not its
+    !! output).
     real(real64), parameter :: issue_table_pendulum_1e10_real128 = 1.6e-3_real64
     real(real64), parameter :: issue_table_pendulum_1e10_double = 3.7e-5_real64
     !> Scratch directory of the end-to-end run (removed afterwards).
@@ -272,8 +273,8 @@ contains
     end subroutine test_csv_malformed
 
     !> Per target, the summary shows the cheapest successful run below it (not a failed
-    !! one, not the plain path, not a NaN error), the cheapest RATTLE run, the issue's
-    !! table time and the ratios table / holosym and RATTLE / holosym.
+    !! one, not the plain path, not a NaN error), the cheapest RATTLE run, the
+    !! competitor table's time and the ratios table / holosym and RATTLE / holosym.
     subroutine test_summary_cheapest(error)
         type(test_error_t), allocatable, intent(out) :: error
         type(bench_row_t), allocatable :: rows(:)
@@ -307,7 +308,7 @@ contains
         call check(error, cell(line, 3) == "(6,5,7) h=1.000", "cheapest holosym: " // line)
         call check(error, cell(line, 4) == "4.00E-03", "its seconds: " // cell(line, 4))
         call check(error, cell(line, 5) == "suzuki p=0 h=0.2500", "cheapest RATTLE: " // line)
-        call check(error, cell(line, 7) == "1.60E-03", "the issue's table time: " // cell(line, 7))
+        call check(error, cell(line, 7) == "1.60E-03", "the competitor table's time: " // cell(line, 7))
         write (expected, '(f10.1)') issue_table_pendulum_1e10_real128 / best_seconds
         call check(error, cell(line, 8) == trim(adjustl(expected)), "x table " // &
             cell(line, 8) // ", expected " // trim(adjustl(expected)))
