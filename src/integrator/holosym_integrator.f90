@@ -1,4 +1,5 @@
-!> The integrator: set up with (M, N, G), advance a state by one step or many.
+!> category: internal module (use holosym)
+!! The integrator: set up with (M, N, G), advance a state by one step or many.
 !!
 !! `step` advances (q, p) by h in place and leaves them unchanged on failure.
 !! `integrate` runs many steps with compensated summation of the increments (round-off

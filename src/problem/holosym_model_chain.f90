@@ -1,4 +1,5 @@
-!> A chain of K planar pendula: the scaling test case, and with K = 2 the double pendulum.
+!> category: internal module (use holosym)
+!! A chain of K planar pendula: the scaling test case, and with K = 2 the double pendulum.
 !!
 !! Point masses m_k at r_k = (x_k, y_k), k = 1..K, joined by rods of lengths l_k: the first
 !! to the origin, each other to the previous mass. Uniform gravity g along -y.

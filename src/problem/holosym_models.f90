@@ -1,4 +1,5 @@
-!> The paper's example systems (method.md section 5) and the planar pendulum, each
+!> category: internal module (use holosym)
+!! The paper's example systems (docs/method.md, section 6) and the planar pendulum, each
 !! defined by H, its gradients, phi and Phi, and the exact second derivatives of H and
 !! phi (which an integrator may ignore and difference instead: `hessians = 'differences'`).
 module holosym_models

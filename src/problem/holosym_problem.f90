@@ -1,4 +1,5 @@
-!> The problem interface: a Hamiltonian system with holonomic constraints.
+!> category: internal module (use holosym)
+!! The problem interface: a Hamiltonian system with holonomic constraints.
 !!
 !! A user defines a system by extending `constrained_hamiltonian`, setting the sizes
 !! `n` (coordinates) and `m` (constraints), and implementing five procedures:
@@ -27,12 +28,9 @@ module holosym_problem
 
     public :: constrained_hamiltonian, difference_hessian, difference_constraint_hessian
 
-    !> Relative step of the default central differences: epsilon**(1/3) balances
-    !! truncation (step**2) against round-off (epsilon/step).
-    real(wp), parameter :: difference_step = epsilon(1.0_wp)**(1.0_wp / 3)
 
     !> Abstract constrained Hamiltonian system. Extend it and implement the deferred bindings.
-    type, abstract, public :: constrained_hamiltonian
+    type, abstract :: constrained_hamiltonian
         !> Number of coordinates q (and momenta p), n >= 1.
         integer :: n = 0
         !> Number of holonomic constraints, 0 <= m < n.
@@ -104,6 +102,13 @@ module holosym_problem
     end interface
 
 contains
+
+    !> Relative step of the default central differences: epsilon**(1/3) balances
+    !! truncation (step**2) against round-off (epsilon/step). A function rather than a
+    !! named constant because not every compiler folds real128 powers.
+    pure real(wp) function difference_step()
+        difference_step = epsilon(1.0_wp)**(1.0_wp / 3)
+    end function difference_step
 
     !> Default `diagonal_mass`: nothing declared. A system whose Hamiltonian is
     !! H = sum_i p_i^2 / (2 mass_i) + U(q) overrides it, sets `mass` and returns .true.;
@@ -200,7 +205,7 @@ contains
 
         do k = 1, size(q)
             ! Differencing the representable neighbours keeps the divisor exact.
-            step = difference_step * max(1.0_wp, abs(q(k)))
+            step = difference_step() * max(1.0_wp, abs(q(k)))
             upper = q(k) + step
             lower = q(k) - step
             shifted = q
@@ -211,7 +216,7 @@ contains
             hqq(:, k) = (plus - minus) / (upper - lower)
         end do
         do k = 1, size(p)
-            step = difference_step * max(1.0_wp, abs(p(k)))
+            step = difference_step() * max(1.0_wp, abs(p(k)))
             upper = p(k) + step
             lower = p(k) - step
             shifted = p
@@ -239,7 +244,7 @@ contains
         integer :: k, l
 
         do k = 1, size(q)
-            step = difference_step * max(1.0_wp, abs(q(k)))
+            step = difference_step() * max(1.0_wp, abs(q(k)))
             upper = q(k) + step
             lower = q(k) - step
             shifted = q

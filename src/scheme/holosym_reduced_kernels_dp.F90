@@ -1,4 +1,5 @@
-!> The reduced step's arithmetic in real64: the template
+!> category: internal module (use holosym)
+!! The reduced step's arithmetic in real64: the template
 !! include/holosym_reduced_kernels.inc with rk = dp.
 module holosym_reduced_kernels_dp
     use holosym_kinds, only: rk => dp

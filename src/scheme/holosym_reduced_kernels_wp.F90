@@ -1,4 +1,5 @@
-!> The reduced step's arithmetic in working precision: the template
+!> category: internal module (use holosym)
+!! The reduced step's arithmetic in working precision: the template
 !! include/holosym_reduced_kernels.inc with rk = wp.
 module holosym_reduced_kernels_wp
     use holosym_kinds, only: rk => wp

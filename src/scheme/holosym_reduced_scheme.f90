@@ -1,4 +1,5 @@
-!> The reduced step equations: the scheme of `holosym_scheme` with the momenta eliminated,
+!> category: internal module (use holosym)
+!! The reduced step equations: the scheme of `holosym_scheme` with the momenta eliminated,
 !! for H = p^T M^-1 p / 2 + U(q) with a constant diagonal mass matrix M.
 !!
 !! The momentum equations R_p,j are then linear in the momentum nodes p_j: with

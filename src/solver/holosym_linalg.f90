@@ -1,4 +1,5 @@
-!> Dense linear algebra in working precision: LU factorisation with partial pivoting
+!> category: internal module (use holosym)
+!! Dense linear algebra in working precision: LU factorisation with partial pivoting
 !! and the matching solve, in the style of LAPACK's getrf/getrs.
 !!
 !! Reference LAPACK has no real128 routines, so these are written here. A pivot whose
@@ -7,12 +8,11 @@
 !!
 !! `lu_factor_dp`/`lu_solve_dp` are the real64 counterparts: they call LAPACK
 !! (dgetf2/dgetrf, dlaswp + BLAS dtrsv, dgetrs) through explicit interfaces with real64
-!! arrays (never real128 data). Measured for n = 15..93: with the reference LAPACK/BLAS the
-!! unblocked dgetf2 beats dgetrf by 1.3-2.5x, with OpenBLAS (installed by
-!! tools/install-deps.sh) dgetrf wins from n ~ 30 on (4x at n = 93); hence dgetf2 below
-!! `blocked_lu_size`. One right-hand side is solved by plain substitution loops below
-!! `blas_solve_size` (measured 1.2-1.7x faster than dlaswp + OpenBLAS dtrsv for
-!! n = 15..60, whose per-call overhead dominates there) and by dlaswp + dtrsv above.
+!! arrays (never real128 data). At the orders of typical Newton systems the unblocked
+!! dgetf2 is faster than the blocked dgetrf, which wins for larger matrices with an
+!! optimised BLAS such as OpenBLAS: hence dgetf2 below `blocked_lu_size`. One right-hand
+!! side is solved by plain substitution loops below `blas_solve_size`, where the per-call
+!! overhead of dlaswp + dtrsv dominates, and by dlaswp + dtrsv above.
 !! Newton uses them for mixed precision (a real64 factorisation, real128 residuals) and,
 !! in the real64 build, for everything. The LAPACK/BLAS calls run one thread at a time
 !! (an OpenMP critical section): a serial OpenBLAS is not safe for concurrent calls.
