@@ -3,8 +3,10 @@
 !! modules of the library are its parts and need not be used directly.
 !!
 !! Left out on purpose: the message helpers of holosym_status (`set_status`, `int_str`,
-!! `real_str`, `is_finite`), the finiteness checks of holosym_newton (`all_finite`,
-!! `all_finite_matrix`) and the kernel modules of the scheme, which only the library uses.
+!! `real_str`, `is_finite`), the CSV helpers of holosym_ensemble_files (`parse_csv_fields`,
+!! `csv_text_t`), `sorted_order` of holosym_ensemble, the finiteness checks of
+!! holosym_newton (`all_finite`, `all_finite_matrix`) and the kernel modules of the scheme,
+!! which only the library uses.
 module holosym
     use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_status, only: holosym_status_t, status_code_name, &
@@ -33,6 +35,13 @@ module holosym
         integrator_stats_t
     use holosym_rattle, only: rattle_integrator, rattle_stats_t, composition_coefficients, &
         rattle_max_order
+    use holosym_task_farm, only: farm_job, task_farm, openmp_farm
+    use holosym_records, only: record_reader_t, put
+    use holosym_ensemble, only: ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
+        ensemble_sink, run_ensemble, check_ensemble, ensemble_steps, integrate_member, &
+        perturbed_states
+    use holosym_ensemble_files, only: read_ensemble_states, ensemble_csv_sink, result_header, &
+        result_row, samples_header
     implicit none
     private
 
@@ -70,5 +79,14 @@ module holosym
     public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order
+    ! Parallel work: a task farm (OpenMP threads here; MPI ranks with holosym-mpi) and the
+    ! records in which tasks return their results.
+    public :: farm_job, task_farm, openmp_farm, record_reader_t, put
+    ! Ensembles: many trajectories of one system in parallel, and their CSV files (states
+    ! in; results written as they complete, resumable; timing log; samples).
+    public :: ensemble_settings_t, ensemble_states_t, ensemble_result_t, ensemble_sink, &
+        run_ensemble, check_ensemble, ensemble_steps, integrate_member, perturbed_states
+    public :: read_ensemble_states, ensemble_csv_sink, result_header, result_row, &
+        samples_header
 
 end module holosym
