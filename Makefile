@@ -2,8 +2,11 @@
 #   make test     install what is missing, build, run the test suite
 #   make tables   the paper's Tables 1-3 (convergence orders, minimum Gauss points)
 #   make bench    work-precision benchmark (real128 and real64 builds) into build/bench
+#   make test-mpi the MPI build (installs OpenMPI) and its tests: ensembles and tables cells
+#                 on 1-3 ranks give the serial files byte for byte; kill and resume
+#   make scaling  measured throughput of ensembles (threads, ranks) into docs/ensemble_scaling.md
 # Other targets: make test64, make install-check, make pendulum, make linkage, make examples,
-# make deps.
+# make mpi, make deps.
 
 FPM ?= fpm
 FPM_FLAGS ?= --profile release
@@ -14,7 +17,7 @@ BENCH_ARGS ?=
 REAL64_FLAGS ?= --flag "-DHOLOSYM_REAL64"
 
 .PHONY: all deps include-digest test test64 install-check tables bench pendulum linkage \
-	examples clean
+	examples mpi test-mpi scaling clean
 
 all: test
 
@@ -60,6 +63,32 @@ examples: deps include-digest
 	$(FPM) run $(FPM_FLAGS) --example spherical_pendulum
 	$(FPM) run $(FPM_FLAGS) --example spring_linkage
 	$(FPM) run $(FPM_FLAGS) --example planar_pendulum
+
+# The MPI build: the holosym-mpi package in mpi/ (OpenMPI's mpifort; the default build
+# needs no MPI). MPI_FPM_FLAGS is its profile (the tests compare it with the default build
+# of holosym, so both use fpm's default profile).
+MPI_FPM_FLAGS ?=
+MPI_FPM = cd mpi && FPM_FC=mpifort $(FPM)
+
+mpi: deps include-digest
+	./tools/install-mpi.sh
+	./tools/mpi_links.sh
+	$(MPI_FPM) build $(MPI_FPM_FLAGS)
+
+test-mpi: mpi
+	$(FPM) build $(MPI_FPM_FLAGS)
+	./tools/test_mpi.sh "$$($(FPM) run $(MPI_FPM_FLAGS) --runner echo 2>/dev/null | tail -1)" \
+		"mpi/$$($(MPI_FPM) run $(MPI_FPM_FLAGS) --runner echo 2>/dev/null | tail -1)"
+
+# Trajectories per second against OpenMP threads and MPI ranks (release builds); writes
+# docs/ensemble_scaling.md. Re-run on a quiet machine: the numbers are only as good as it.
+SCALING_ARGS ?=
+scaling:
+	$(MAKE) mpi MPI_FPM_FLAGS="$(FPM_FLAGS)"
+	$(FPM) build $(FPM_FLAGS)
+	./tools/ensemble_scaling.sh "$$($(FPM) run $(FPM_FLAGS) --runner echo 2>/dev/null | tail -1)" \
+		"mpi/$$($(MPI_FPM) run $(FPM_FLAGS) --runner echo 2>/dev/null | tail -1)" \
+		docs/ensemble_scaling.md $(SCALING_ARGS)
 
 clean:
 	$(FPM) clean --all
