@@ -92,7 +92,7 @@ contains
         case ("simulate")
             call simulate_command(args, out_unit, err_unit, exit_code)
         case ("tables")
-            call tables_command(args, out_unit, err_unit, exit_code)
+            call tables_command(args, out_unit, err_unit, exit_code, farm)
         case ("bench")
             call bench_command(args, out_unit, err_unit, exit_code)
         case ("extremes")
