@@ -63,6 +63,7 @@ examples: deps include-digest
 	$(FPM) run $(FPM_FLAGS) --example spherical_pendulum
 	$(FPM) run $(FPM_FLAGS) --example spring_linkage
 	$(FPM) run $(FPM_FLAGS) --example planar_pendulum
+	$(FPM) run $(FPM_FLAGS) --example pendulum_ensemble
 
 # The MPI build: the holosym-mpi package in mpi/ (OpenMPI's mpifort; the default build
 # needs no MPI). MPI_FPM_FLAGS is its profile (the tests compare it with the default build
