@@ -4,7 +4,7 @@
 #   make bench    work-precision benchmark (real128 and real64 builds) into build/bench
 #   make test-mpi the MPI build (installs OpenMPI) and its tests: ensembles and tables cells
 #                 on 1-3 ranks give the serial files byte for byte; kill and resume
-#   make scaling  measured throughput of ensembles (threads, ranks) into docs/ensemble_scaling.md
+#   make scaling  measured throughput of ensembles (threads, ranks) into docs/ensemble.md
 # Other targets: make test64, make install-check, make pendulum, make linkage, make examples,
 # make mpi, make deps.
 
@@ -81,15 +81,16 @@ test-mpi: mpi
 	./tools/test_mpi.sh "$$($(FPM) run $(MPI_FPM_FLAGS) --runner echo 2>/dev/null | tail -1)" \
 		"mpi/$$($(MPI_FPM) run $(MPI_FPM_FLAGS) --runner echo 2>/dev/null | tail -1)"
 
-# Trajectories per second against OpenMP threads and MPI ranks (release builds); writes
-# docs/ensemble_scaling.md. Re-run on a quiet machine: the numbers are only as good as it.
+# Trajectories per second against OpenMP threads and MPI ranks (release builds), into the
+# scaling section of docs/ensemble.md. Re-run on a quiet machine: the numbers are only as
+# good as it is quiet.
 SCALING_ARGS ?=
 scaling:
 	$(MAKE) mpi MPI_FPM_FLAGS="$(FPM_FLAGS)"
 	$(FPM) build $(FPM_FLAGS)
 	./tools/ensemble_scaling.sh "$$($(FPM) run $(FPM_FLAGS) --runner echo 2>/dev/null | tail -1)" \
 		"mpi/$$($(MPI_FPM) run $(FPM_FLAGS) --runner echo 2>/dev/null | tail -1)" \
-		docs/ensemble_scaling.md $(SCALING_ARGS)
+		docs/ensemble.md $(SCALING_ARGS)
 
 clean:
 	$(FPM) clean --all
