@@ -91,7 +91,7 @@ contains
         integer, intent(in) :: tasks(:)         !! task numbers, in order (rank 0's are used)
         type(holosym_status_t), intent(out) :: status !! outcome
         type(local_slot) :: slot
-        integer :: rank, accepted, thread
+        integer :: rank, accepted, thread, team
         logical :: halted
 
         call MPI_Comm_rank(self%comm, rank)
@@ -99,10 +99,12 @@ contains
         accepted = 0
         if (rank == 0) then
             thread = 0
+            team = 1
             !$omp parallel num_threads(2) default(shared) private(thread)
             !$ thread = omp_thread()
+            !$ team = omp_team()
             if (thread == 0) then
-                call manage(self%comm, job, tasks, slot, halted, accepted)
+                call manage(self%comm, job, tasks, slot, halted, accepted, team >= 2)
             else
                 call work_locally(job, slot)
             end if
@@ -127,24 +129,30 @@ contains
         !$ omp_thread = omp_get_thread_num()
     end function omp_thread
 
+    !> The number of threads of the current team.
+    integer function omp_team()
+        !$ use omp_lib, only: omp_get_num_threads
+        omp_team = 1
+        !$ omp_team = omp_get_num_threads()
+    end function omp_team
+
     !> The manager on rank 0: answer every worker's request with the next task (or stop),
-    !! accept every result. Without OpenMP (one thread) it also runs the local tasks itself.
-    subroutine manage(comm, job, tasks, slot, halted, accepted)
+    !! accept every result. Without a second thread it also runs the local tasks itself.
+    subroutine manage(comm, job, tasks, slot, halted, accepted, threaded)
         type(MPI_Comm), intent(in) :: comm
         class(farm_job), intent(inout) :: job
         integer, intent(in) :: tasks(:)
         type(local_slot), intent(inout) :: slot
         logical, intent(inout) :: halted
         integer, intent(inout) :: accepted
+        logical, intent(in) :: threaded
         type(MPI_Status) :: message
         type(record_reader_t) :: reader
         character(len=:), allocatable :: buffer, record
         integer :: next, remote_active, length, task, size, state, ignored
-        logical :: arrived, progressed, local_active, threaded
+        logical :: arrived, progressed, local_active
 
         call MPI_Comm_size(comm, size)
-        threaded = .false.
-        !$ threaded = .true.
         next = 1
         remote_active = size - 1
         local_active = .true.
