@@ -29,6 +29,7 @@ module holosym_benchmark
         1.0e-18_wp, 1.0e-22_wp, 1.0e-26_wp]
     !> The competitor table (GNI_COMP, cheapest configuration; CPU seconds) for targets
     !! 1e-10 .. 1e-26: (target, system, precision 1 = double, 2 = real128); < 0 none.
+    !! A fixed table given with the benchmark's specification, not measured by holosym.
     real(real64), parameter :: competitor_targets(5) = [1.0e-10_real64, 1.0e-14_real64, &
         1.0e-18_real64, 1.0e-22_real64, 1.0e-26_real64]
     real(real64), parameter :: competitor_seconds(5, 3, 2) = reshape([ &

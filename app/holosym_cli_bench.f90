@@ -563,6 +563,8 @@ contains
         character(len=:), allocatable :: text
         character(len=16) :: buffer
         write (buffer, '(g0.4)') real(row%h, real64)
+        ! The leading zero of 0.25 is optional in the standard: written alike everywhere.
+        if (buffer(1:1) == '.') buffer = '0' // buffer
         if (index(row%method, "holosym") == 1) then
             text = "(" // int_str(row%order_m) // "," // int_str(row%order_n) // "," // &
                 int_str(row%gauss_points) // ") h=" // trim(buffer)
@@ -588,7 +590,10 @@ contains
             "Newton, mixed-precision LU, real64 pre-solve in the real128 build, exact " // &
             "Hessians, extrapolated guess). RATTLE: " // &
             "composed inside holosym (triple jump or Suzuki), same problem interface. " // &
-            "'table' is the competitor's (GNI_COMP) time from the issue; 'x' = table / holosym."
+            "'table': CPU seconds of the cheapest configuration of the competitor " // &
+            "GNI_COMP (Hairer's composition code) from a fixed table given with the " // &
+            "benchmark's specification, not measured in this run (its machine and command " // &
+            "are not known), so 'x table' = table / holosym is indicative only."
         do precision = 2, 1, -1
             prec = merge("real128", "real64 ", precision == 2)
             if (.not. any(rows%precision == prec)) cycle

@@ -14,7 +14,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-# The competitor's table from the issue (GNI_COMP, cheapest configuration per target).
+# The competitor's table (GNI_COMP, cheapest configuration per target): fixed numbers given
+# with the benchmark's specification, not measured here (see docs/performance.md).
 TABLE_TARGETS = [1e-10, 1e-14, 1e-18, 1e-22, 1e-26]
 TABLE = {
     ("pendulum", "real128"): [1.6e-3, 4.9e-3, 0.010, 0.040, 0.083],
