@@ -20,8 +20,12 @@
 #   make docs-stability       docs/stability.md    (holosym extremes, minutes)
 #   make docs-performance     docs/performance.md and docs/work_precision.png
 #                             (make bench, about ten minutes)
-# Other targets: make bench, make pendulum, make linkage, make examples, make deps,
-# make clean. Every target that needs an extra tool (cmake, flang, FORD) installs it.
+# Ensembles and MPI:
+#   make test-mpi             the MPI build (installs OpenMPI) and its tests: ensembles and
+#                             tables cells on 1-3 ranks give the serial files byte for byte
+#   make scaling              ensemble throughput (threads, ranks) into docs/ensemble.md
+# Other targets: make bench, make pendulum, make linkage, make examples, make mpi,
+# make deps, make clean. Every target that needs an extra tool (cmake, flang, FORD) installs it.
 
 FPM ?= fpm
 FPM_FLAGS ?= --profile release
@@ -43,7 +47,7 @@ CMAKE_DIR ?= build/cmake
 .PHONY: all deps include-digest test test64 tables bench pendulum linkage examples clean \
 	install check-install check-fpm-install cmake-deps cmake-test flang-deps test-flang \
 	check-examples check-version check-fpm-dependency profile docs docs-deps docs-tables \
-	docs-stability docs-performance
+	docs-stability docs-performance mpi test-mpi scaling
 
 all: test
 
@@ -90,6 +94,34 @@ examples: deps include-digest
 	$(FPM) run $(FPM_FLAGS) --example spherical_pendulum
 	$(FPM) run $(FPM_FLAGS) --example spring_linkage
 	$(FPM) run $(FPM_FLAGS) --example planar_pendulum
+	$(FPM) run $(FPM_FLAGS) --example pendulum_ensemble
+
+# The MPI build: the holosym-mpi package in mpi/ (OpenMPI's mpifort; the default build
+# needs no MPI). MPI_FPM_FLAGS is its profile (the tests compare it with the default build
+# of holosym, so both use fpm's default profile).
+MPI_FPM_FLAGS ?=
+MPI_FPM = cd mpi && FPM_FC=mpifort $(FPM)
+
+mpi: deps include-digest
+	./tools/install-mpi.sh
+	./tools/mpi_links.sh
+	$(MPI_FPM) build $(MPI_FPM_FLAGS)
+
+test-mpi: mpi
+	$(FPM) build $(MPI_FPM_FLAGS)
+	./tools/test_mpi.sh "$$($(FPM) run $(MPI_FPM_FLAGS) --runner echo 2>/dev/null | tail -1)" \
+		"mpi/$$($(MPI_FPM) run $(MPI_FPM_FLAGS) --runner echo 2>/dev/null | tail -1)"
+
+# Trajectories per second against OpenMP threads and MPI ranks (release builds), into the
+# scaling section of docs/ensemble.md. Re-run on a quiet machine: the numbers are only as
+# good as it is quiet.
+SCALING_ARGS ?=
+scaling:
+	$(MAKE) mpi MPI_FPM_FLAGS="$(FPM_FLAGS)"
+	$(FPM) build $(FPM_FLAGS)
+	./tools/ensemble_scaling.sh "$$($(FPM) run $(FPM_FLAGS) --runner echo 2>/dev/null | tail -1)" \
+		"mpi/$$($(MPI_FPM) run $(FPM_FLAGS) --runner echo 2>/dev/null | tail -1)" \
+		docs/ensemble.md $(SCALING_ARGS)
 
 # ---------------------------------------------------------------- checks
 

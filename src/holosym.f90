@@ -4,7 +4,8 @@
 !! in quadruple precision. The other modules are internal: the public entities users need
 !! are re-exported here, and the pages of the modules that define them document them.
 !! Left out on purpose: the message helpers of holosym_status (`set_status`, `int_str`,
-!! `real_str`, `is_finite`) and the kernel modules of the schemes.
+!! `real_str`, `is_finite`), the CSV helpers of holosym_ensemble_files (`parse_csv_fields`,
+!! `csv_text_t`), `sorted_order` of holosym_ensemble and the kernel modules of the schemes.
 !!
 !! - [[holosym_kinds:wp]], `dp`, `wp_is_double`: the working kind (real128, or real64 with
 !!   `-DHOLOSYM_REAL64`), real64, and whether they are the same.
@@ -34,6 +35,14 @@
 !!   planar pendula (the double pendulum for two links).
 !! - [[rattle_integrator]], [[rattle_stats_t]], [[composition_coefficients]],
 !!   `rattle_max_order`: the RATTLE baseline and its symmetric compositions.
+!! - [[run_ensemble]], [[ensemble_settings_t]], [[ensemble_states_t]],
+!!   [[ensemble_result_t]], [[ensemble_sink]], [[check_ensemble]], [[ensemble_steps]],
+!!   [[integrate_member]], [[perturbed_states]]: many trajectories of one system on threads
+!!   (or MPI ranks), results by id; [[read_ensemble_states]], [[ensemble_csv_sink]],
+!!   [[result_header]], [[result_row]], [[samples_header]]: their CSV files (docs/ensemble.md).
+!! - [[farm_job]], [[task_farm]], [[openmp_farm]], [[record_reader_t]], `put`: the task farm
+!!   under the ensemble (a job's tasks on workers, results to one collector, packed as
+!!   records), for parallel drivers of one's own.
 !! - [[gauss_legendre]], [[gauss_lobatto]]: quadrature rules on [0, 1].
 !! - [[lagrange_values]], [[lagrange_derivatives]], [[lagrange_matrices]]: the Lagrange
 !!   basis on given nodes.
@@ -78,6 +87,13 @@ module holosym
         integrator_stats_t
     use holosym_rattle, only: rattle_integrator, rattle_stats_t, composition_coefficients, &
         rattle_max_order
+    use holosym_task_farm, only: farm_job, task_farm, openmp_farm
+    use holosym_records, only: record_reader_t, put
+    use holosym_ensemble, only: ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
+        ensemble_sink, run_ensemble, check_ensemble, ensemble_steps, integrate_member, &
+        perturbed_states
+    use holosym_ensemble_files, only: read_ensemble_states, ensemble_csv_sink, result_header, &
+        result_row, samples_header
     implicit none
     private
 
@@ -117,5 +133,14 @@ module holosym
     public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order
+    ! Parallel work: a task farm (OpenMP threads here; MPI ranks with holosym-mpi) and the
+    ! records in which tasks return their results.
+    public :: farm_job, task_farm, openmp_farm, record_reader_t, put
+    ! Ensembles: many trajectories of one system in parallel, and their CSV files (states
+    ! in; results written as they complete, resumable; timing log; samples).
+    public :: ensemble_settings_t, ensemble_states_t, ensemble_result_t, ensemble_sink, &
+        run_ensemble, check_ensemble, ensemble_steps, integrate_member, perturbed_states
+    public :: read_ensemble_states, ensemble_csv_sink, result_header, result_row, &
+        samples_header
 
 end module holosym
