@@ -105,7 +105,7 @@ contains
                     real_str(maxval(abs(residuals))))
                 if (order < 10) then
                     residuals = composition_order_residuals(gammas, order + 2)
-                    call check(error, maxval(abs(residuals)) > 1.0e-6_wp, trim(family) // &
+                    call check(error, maxval(abs(residuals)) > 1.0e-12_wp, trim(family) // &
                         " order " // int_str(order) // " passes the conditions of order " // &
                         int_str(order + 2))
                 end if
