@@ -59,7 +59,8 @@ contains
                 found = .false.
                 exit
             end if
-            table%cells = reshape([table%cells, fields], [size(table%names), rows + 1])
+            table%cells = reshape([character(len=field_length) :: table%cells, fields], &
+                [size(table%names), rows + 1])
             rows = rows + 1
         end do
         close (unit)
@@ -75,10 +76,10 @@ contains
         do
             comma = index(line(first:), ",")
             if (comma == 0) then
-                fields = [fields, line(first:len_trim(line))]
+                fields = [character(len=field_length) :: fields, line(first:len_trim(line))]
                 exit
             end if
-            fields = [fields, line(first:first + comma - 2)]
+            fields = [character(len=field_length) :: fields, line(first:first + comma - 2)]
             first = first + comma
         end do
     end function split
@@ -192,7 +193,8 @@ contains
         if (.not. have_quad) quad = double
         if (.not. have_double) double = quad
         both%names = quad%names
-        both%cells = reshape([quad%cells, double%cells], [size(quad%names), &
+        both%cells = reshape([character(len=field_length) :: quad%cells, double%cells], [ &
+            size(quad%names), &
             size(quad%cells, 2) + size(double%cells, 2)])
         write (unit, '(a)') "n = 2K, m = K, (M, N, G) = (4, 3, 5), h = 0.01 (command: " // &
             "`holosym bench --scaling`, in the real128 and real64 builds). Seconds per step; " // &
@@ -302,7 +304,7 @@ contains
         allocate (cases(0))
         do r = 1, size(table%cells, 2)
             line = field(table, "system", r) // " " // field(table, "span", r)
-            if (.not. any(cases == line)) cases = [cases, line(1:min(len(line), field_length))]
+            if (.not. any(cases == line)) cases = [character(len=field_length) :: cases, line]
         end do
         do c = 1, size(cases)
             do t = 1, size(targets)

@@ -48,7 +48,9 @@ contains
             new_test("csv_rejects_malformed_input", test_csv_malformed), &
             new_test("summary_picks_cheapest_successful_run", test_summary_cheapest), &
             new_test("summary_per_step_ratios", test_summary_per_step), &
-            new_test("command_tiny_sweep_end_to_end", test_command_end_to_end)]
+            new_test("command_tiny_sweep_end_to_end", test_command_end_to_end), &
+            new_test("scaling_quick", test_scaling_quick), &
+            new_test("long_quick", test_long_quick)]
     end function bench_tests
 
     ! ------------------------------------------------------------------ helpers
@@ -176,6 +178,26 @@ contains
         ios(20) = 0
         ok = all(ios == 0)
     end subroutine parse_row
+
+    !> Field k of a CSV line read as a number (integer, real(wp) or real64); ios /= 0 when
+    !! it is not one.
+    subroutine read_field(line, k, value, ios)
+        character(len=*), intent(in) :: line
+        integer, intent(in) :: k
+        class(*), intent(out) :: value
+        integer, intent(out) :: ios
+        character(len=:), allocatable :: text
+        text = split_field(line, k, ",")
+        ios = 1
+        select type (value)
+        type is (integer)
+            read (text, *, iostat=ios) value
+        type is (real(wp))
+            read (text, *, iostat=ios) value
+        type is (real(real64))
+            read (text, *, iostat=ios) value
+        end select
+    end subroutine read_field
 
     !> A ratio as the summary writes it: two decimals below 10, one above.
     function ratio_expected(ratio) result(text)
@@ -640,5 +662,121 @@ contains
         end function count_prefix
 
     end subroutine test_command_end_to_end
+
+    !> `bench --scaling --quick`: one CSV line per (K, path), K = 1, 2, 4, 8 on the reduced
+    !! step and K <= 4 on the general path, with sane sizes, times and memory; the
+    !! performance page gets its scaling section; a bad --scaling-point is refused.
+    subroutine test_scaling_quick(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: csv(:), page(:)
+        character(len=:), allocatable :: dir, name, line
+        integer :: i, ios, links, n, m, steps, status, reduced, general
+        real(wp) :: seconds
+        real(real64) :: memory
+        dir = fresh_dir("bench_scaling")
+        call run_holosym(words("bench", "--scaling", "--quick", "--out", dir), result)
+        call check(error, len(result%failure) == 0 .and. result%exit_code == 0, &
+            "bench --scaling --quick exits 0, got " // int_str(result%exit_code))
+        if (allocated(error)) return
+        name = dir // "/" // trim(merge("scaling64.csv", "scaling.csv  ", wp_is_double))
+        call read_lines(name, csv, ios)
+        call check(error, ios == 0 .and. size(csv) == 8, "read " // name // ": " // &
+            int_str(size(csv)) // " lines, expected 8")
+        if (allocated(error)) return
+        call check(error, csv(1)%text == "precision,path,links,n,m,steps,seconds_per_step," // &
+            "max_rss_kb,status", "scaling header: " // csv(1)%text)
+        reduced = 0
+        general = 0
+        do i = 2, size(csv)
+            line = csv(i)%text
+            call check(error, split_field(line, 1, ",") == trim(merge("real64 ", "real128", &
+                wp_is_double)), "precision of " // line)
+            if (split_field(line, 2, ",") == "reduced") reduced = reduced + 1
+            if (split_field(line, 2, ",") == "general") general = general + 1
+            call read_field(line, 3, links, ios)
+            if (ios == 0) call read_field(line, 4, n, ios)
+            if (ios == 0) call read_field(line, 5, m, ios)
+            if (ios == 0) call read_field(line, 6, steps, ios)
+            if (ios == 0) call read_field(line, 7, seconds, ios)
+            if (ios == 0) call read_field(line, 8, memory, ios)
+            if (ios == 0) call read_field(line, 9, status, ios)
+            call check(error, ios == 0, "fields of " // line)
+            if (allocated(error)) return
+            call check(error, n == 2 * links .and. m == links, "n = 2K, m = K: " // line)
+            call check(error, status == 0 .and. steps >= 1, "status 0, steps: " // line)
+            call check(error, seconds > 0 .and. seconds < 1, "seconds per step: " // line)
+            call check(error, memory > 1000 .and. memory < 1.0e7_real64, "peak kB: " // line)
+            if (allocated(error)) return
+        end do
+        call check(error, reduced == 4 .and. general == 3, int_str(reduced) // " reduced, " // &
+            int_str(general) // " general lines, expected 4 and 3")
+        call read_lines(dir // "/performance.md", page, ios)
+        call check(error, ios == 0 .and. has_line(page, "## Scaling: a chain of K planar pendula"), &
+            "performance.md has the scaling section")
+        call run_holosym(words("bench", "--scaling-point", "0"), result)
+        call check(error, result%exit_code /= 0, "--scaling-point 0 is refused")
+    end subroutine test_scaling_quick
+
+    !> `bench --long --quick` (holosym only, no heyoka): the reference file, and for each
+    !! case and configuration the cheapest runs reaching 1e-20 and 1e-24, with the
+    !! constraints at round-off over the whole run; the real64 build refuses --long.
+    subroutine test_long_quick(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: csv(:), refs(:), page(:)
+        character(len=:), allocatable :: dir, line
+        integer :: i, ios, rows, status
+        real(wp) :: run_error, max_phi, energy_error
+        dir = fresh_dir("bench_long")
+        call run_holosym(words("bench", "--long", "--quick", "--out", dir), result)
+        call check(error, len(result%failure) == 0, result%failure)
+        if (wp_is_double) then
+            call check(error, result%exit_code == exit_failure .and. &
+                any_err(result, "real128"), "the real64 build refuses --long")
+            return
+        end if
+        call check(error, result%exit_code == 0, "bench --long --quick exits 0, got " // &
+            int_str(result%exit_code))
+        if (allocated(error)) return
+        call read_lines(dir // "/long.csv", csv, ios)
+        call check(error, ios == 0 .and. size(csv) >= 5, "long.csv: " // int_str(size(csv)) // &
+            " lines")
+        if (allocated(error)) return
+        call check(error, csv(1)%text == "system,method,precision,span,config,tolerance," // &
+            "steps,error,max_phi,max_hidden,energy_error,seconds,compile_seconds,status", &
+            "long header: " // csv(1)%text)
+        rows = 0
+        do i = 2, size(csv)
+            line = csv(i)%text
+            call check(error, split_field(line, 2, ",") == "holosym", "method of " // line)
+            call read_field(line, 8, run_error, ios)
+            if (ios == 0) call read_field(line, 9, max_phi, ios)
+            if (ios == 0) call read_field(line, 11, energy_error, ios)
+            if (ios == 0) call read_field(line, 14, status, ios)
+            call check(error, ios == 0, "fields of " // line)
+            if (allocated(error)) return
+            call check(error, status == 0 .and. run_error <= 1.0e-20_wp, "error at T: " // line)
+            call check(error, max_phi <= 1.0e-30_wp, "whole-run max |phi|: " // line)
+            call check(error, energy_error < 1.0e-18_wp, "energy error: " // line)
+            rows = rows + 1
+        end do
+        call check(error, rows >= 4, int_str(rows) // " holosym rows")
+        call read_lines(dir // "/long_reference.csv", refs, ios)
+        call check(error, ios == 0 .and. size(refs) > 4, "long_reference.csv written")
+        call read_lines(dir // "/performance.md", page, ios)
+        call check(error, ios == 0 .and. has_line(page, "## Long runs"), &
+            "performance.md has the long-run section")
+    contains
+        logical function any_err(outcome, text)
+            type(command_result_t), intent(in) :: outcome
+            character(len=*), intent(in) :: text
+            integer :: k
+            any_err = .false.
+            do k = 1, size(outcome%err)
+                if (index(outcome%err(k)%text, text) > 0) any_err = .true.
+            end do
+        end function any_err
+    end subroutine test_long_quick
 
 end module test_bench
