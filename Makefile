@@ -3,7 +3,7 @@
 #   make tables   the paper's Tables 1-3 (convergence orders, minimum Gauss points)
 #   make bench    benchmark against heyoka and RATTLE (real128 and real64 builds), chain
 #                 scaling, plots and docs/performance.md (about an hour of CPU on one core)
-# Other targets: make bench-long (the long runs, several hours), make bench-quick (a short
+# Other targets: make bench-long (the long runs, about an hour), make bench-quick (a short
 # check of the whole bench pipeline), make test64, make install-check, make pendulum,
 # make linkage, make examples, make deps.
 
@@ -65,7 +65,7 @@ bench: deps include-digest
 	$(MAKE) bench-report
 
 # The long runs (planar pendulum to T = 1e4 and 1e5, spherical pendulum to 1e4) against
-# heyoka, into $(BENCH_DIR)/long.csv; several hours of CPU. Then docs/performance.md again.
+# heyoka, into $(BENCH_DIR)/long.csv; about an hour of CPU. Then docs/performance.md again.
 bench-long: deps include-digest
 	./tools/bench_venv.sh $(BENCH_VENV) > /dev/null
 	mkdir -p $(BENCH_DIR)
@@ -84,10 +84,13 @@ bench-report: deps include-digest
 	@cat $(BENCH_DIR)/summary.md
 
 # The whole pipeline in a few minutes (short sweeps, K <= 8, short long runs), into
-# build/bench-quick; docs/ is not touched.
+# build/bench-quick; docs/ is not touched. BENCH_QUICK_ARGS narrows it further (CI:
+# --systems planar --no-per-step).
+BENCH_QUICK_ARGS ?=
 bench-quick: deps include-digest
 	./tools/bench_venv.sh $(BENCH_VENV) > /dev/null
-	$(FPM) run $(FPM_FLAGS) -- bench --quick --out build/bench-quick --heyoka $(BENCH_PYTHON)
+	$(FPM) run $(FPM_FLAGS) -- bench --quick --out build/bench-quick --heyoka $(BENCH_PYTHON) \
+		$(BENCH_QUICK_ARGS)
 	$(FPM) run $(FPM_FLAGS) -- bench --scaling --quick --out build/bench-quick
 	$(FPM) run $(FPM_FLAGS) -- bench --long --quick --out build/bench-quick \
 		--heyoka $(BENCH_PYTHON)

@@ -71,6 +71,8 @@ module holosym_benchmark
         integer :: max_levels = 40
         !> Progress lines to this unit (< 0: none).
         integer :: progress_unit = -1
+        !> holosym's Newton tolerance (`newton%tolerance`); 0: the default (8 epsilon).
+        real(wp) :: newton_tolerance = 0
     end type bench_settings_t
 
     interface
@@ -221,7 +223,7 @@ contains
     !> One holosym run over [0, T] with step h and option set `variant`: a diagnostic pass
     !! (energy, constraints; optional, untimed) and timed passes of `integrate`.
     subroutine holosym_run(sys, q0, p0, span, order_m, order_n, gauss_points, h, variant, &
-                           q_ref, p_ref, diagnose, row, status, q_end, p_end)
+                           q_ref, p_ref, diagnose, row, status, q_end, p_end, newton_tolerance)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         real(wp), intent(in) :: q0(:), p0(:)   !! initial state
         real(wp), intent(in) :: span           !! T
@@ -233,6 +235,8 @@ contains
         type(bench_row_t), intent(out) :: row  !! the measurements
         type(holosym_status_t), intent(out) :: status !! outcome
         real(wp), intent(out), optional :: q_end(:), p_end(:) !! state at T
+        !> Newton tolerance (> 0), recorded as the row's `tolerance`; else the default.
+        real(wp), intent(in), optional :: newton_tolerance
         type(constrained_integrator) :: integ
         real(wp) :: q(size(q0)), p(size(p0)), energy0, step_size
         real(real64) :: times(3), start, finish
@@ -248,6 +252,7 @@ contains
         row%steps = steps
         row%method = "holosym"
         if (variant == 0) row%method = "holosym-plain"
+        if (present(newton_tolerance)) row%tolerance = max(newton_tolerance, 0.0_wp)
         row%precision = merge("real64 ", "real128", wp_is_double)
         if (diagnose) then
             q = q0
@@ -258,6 +263,15 @@ contains
                 return
             end if
             call configure_variant(integ, variant)
+            if (present(newton_tolerance)) then
+                if (newton_tolerance > 0) then
+                    ! States then meet the constraints to about this tolerance: accept them
+                    ! as start states of the next call (the diagnostic pass steps singly).
+                    integ%newton%tolerance = newton_tolerance
+                    integ%manifold_tolerance = max(integ%manifold_tolerance, &
+                                                   1.0e4_wp * newton_tolerance)
+                end if
+            end if
             energy0 = sys%hamiltonian(q, p)
             do k = 1, steps
                 call integ%integrate(sys, q, p, step_size, 1, status=status)
@@ -277,6 +291,15 @@ contains
             call integ%init(sys, order_m, order_n, gauss_points, status)
             if (.not. status%ok()) exit
             call configure_variant(integ, variant)
+            if (present(newton_tolerance)) then
+                if (newton_tolerance > 0) then
+                    ! States then meet the constraints to about this tolerance: accept them
+                    ! as start states of the next call (the diagnostic pass steps singly).
+                    integ%newton%tolerance = newton_tolerance
+                    integ%manifold_tolerance = max(integ%manifold_tolerance, &
+                                                   1.0e4_wp * newton_tolerance)
+                end if
+            end if
             call cpu_time(start)
             call integ%integrate(sys, q, p, step_size, steps, status=status)
             call cpu_time(finish)
@@ -418,7 +441,8 @@ contains
             last_steps = steps
             if (is_holosym) then
                 call holosym_run(sys, q0, p0, span, order_m, order_n, gauss_points, &
-                                 span / steps, variant_count, q_ref, p_ref, .true., row, status)
+                                 span / steps, variant_count, q_ref, p_ref, .true., row, status, &
+                                 newton_tolerance=settings%newton_tolerance)
             else
                 call rattle_run(sys, q0, p0, span, order, family, span / steps, q_ref, p_ref, &
                                 row, status)

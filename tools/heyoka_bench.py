@@ -191,8 +191,10 @@ def read_reference(path, system, fp):
 
 
 def text(x):
-    """A number as holosym's CSV reader takes it (36 digits in real128)."""
-    return repr(x) if isinstance(x, float) else str(x)
+    """A number as holosym's CSV reader takes it (36 digits in real128, 17 in double)."""
+    if isinstance(x, hy.real128):
+        return str(x)
+    return repr(float(x))
 
 
 class Runner:
