@@ -179,7 +179,7 @@ contains
         ok = all(ios == 0)
     end subroutine parse_row
 
-    !> Field k of a CSV line read as a number (integer, real(wp) or real64); ios /= 0 when
+    !> Field k of a CSV line read as a number (integer or real(wp)); ios /= 0 when
     !! it is not one.
     subroutine read_field(line, k, value, ios)
         character(len=*), intent(in) :: line
@@ -193,8 +193,6 @@ contains
         type is (integer)
             read (text, *, iostat=ios) value
         type is (real(wp))
-            read (text, *, iostat=ios) value
-        type is (real(real64))
             read (text, *, iostat=ios) value
         end select
     end subroutine read_field
@@ -672,8 +670,7 @@ contains
         type(text_line_t), allocatable :: csv(:), page(:)
         character(len=:), allocatable :: dir, name, line
         integer :: i, ios, links, n, m, steps, status, reduced, general
-        real(wp) :: seconds
-        real(real64) :: memory
+        real(wp) :: seconds, memory
         dir = fresh_dir("bench_scaling")
         call run_holosym(words("bench", "--scaling", "--quick", "--out", dir), result)
         call check(error, len(result%failure) == 0 .and. result%exit_code == 0, &
@@ -706,7 +703,7 @@ contains
             call check(error, n == 2 * links .and. m == links, "n = 2K, m = K: " // line)
             call check(error, status == 0 .and. steps >= 1, "status 0, steps: " // line)
             call check(error, seconds > 0 .and. seconds < 1, "seconds per step: " // line)
-            call check(error, memory > 1000 .and. memory < 1.0e7_real64, "peak kB: " // line)
+            call check(error, memory > 1000 .and. memory < 1.0e7_wp, "peak kB: " // line)
             if (allocated(error)) return
         end do
         call check(error, reduced == 4 .and. general == 3, int_str(reduced) // " reduced, " // &
