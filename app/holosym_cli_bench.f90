@@ -103,6 +103,8 @@ contains
             "  --scaling        instead: chain of K pendula, K = 1..256, (4,3,5), h = 0.01:", &
             "                   cost per step, peak memory, reduced and general paths", &
             "                   (DIR/scaling.csv, scaling64.csv in the real64 build)", &
+            "  --scaling-point K  one point of --scaling: its CSV line (--general: the", &
+            "                   general path)", &
             "  --long           instead: long runs (planar T = 1e4, 1e5, spherical 1e4) to", &
             "                   errors 1e-20 and 1e-24 (DIR/long.csv; about an hour;", &
             "                   --quick: T = 20 and 10)", &
