@@ -6,6 +6,8 @@
 !! `run_command` and one line to `cli_help`. Nothing here stops the program: the main
 !! program turns `exit_code` into the process exit status.
 module holosym_cli
+    use holosym_release, only: holosym_version
+    use holosym_kinds, only: wp
     use holosym_cli_common, only: cli_argument_t, join_lines, EXIT_OK, EXIT_USAGE
     use holosym_cli_simulate, only: simulate_command
     use holosym_cli_tables, only: tables_command
@@ -41,6 +43,7 @@ contains
             "  extremes   stability at the extremes: long runs, tiny/large steps, high orders", &
             "", &
             "Run 'holosym COMMAND --help' (or 'holosym help COMMAND') for a command's options.", &
+            "'holosym --version' prints the version.", &
             "Exit status: 0 success, 1 the command failed, 2 bad usage."])
     end function cli_help
 
@@ -61,6 +64,10 @@ contains
         select case (args(1)%text)
         case ("-h", "--help")
             write (out_unit, '(a)') cli_help()
+            exit_code = EXIT_OK
+        case ("-V", "--version")
+            write (out_unit, '(a, i0, a)') "holosym " // holosym_version // &
+                " (working precision: ", storage_size(1.0_wp), "-bit real)"
             exit_code = EXIT_OK
         case ("help")
             if (size(args) == 1) then

@@ -656,6 +656,8 @@ contains
         character(len=:), allocatable :: text
         character(len=16) :: buffer
         write (buffer, '(g0.4)') real(row%h, real64)
+        ! The leading zero of 0.25 is optional in the standard: written alike everywhere.
+        if (buffer(1:1) == '.') buffer = '0' // buffer
         if (index(row%method, "holosym") == 1) then
             text = "(" // int_str(row%order_m) // "," // int_str(row%order_n) // "," // &
                 int_str(row%gauss_points) // ") h=" // trim(buffer)

@@ -465,8 +465,8 @@ contains
         flush (err_unit)
     end subroutine write_summary
 
-    !> Observer: after step k, write the t = 0 row (at k = 1), the row of step k when k is
-    !! a multiple of `every` or the last step, and update the summary.
+    !> The observer binding: after step k, write the t = 0 row (at k = 1), the row of
+    !! step k when k is a multiple of `every` or the last step, and update the summary.
     subroutine csv_writer_observe(self, step, t, q, p, info, halt)
         class(csv_writer), intent(inout) :: self  !! the writer
         integer, intent(in) :: step          !! step number k >= 1

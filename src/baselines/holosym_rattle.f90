@@ -1,4 +1,5 @@
-!> The competitor: RATTLE (second order, symmetric, symplectic, both constraint levels
+!> category: internal module (use holosym)
+!! The competitor: RATTLE (second order, symmetric, symplectic, both constraint levels
 !! at the step ends) for the same problem interface, raised to orders 4, 6, 8 and 10 by
 !! symmetric composition, as in Hairer's GNI_COMP.
 !!

@@ -1,4 +1,5 @@
-!> Dense linear algebra in working precision: LU factorisation with partial pivoting
+!> category: internal module (use holosym)
+!! Dense linear algebra in working precision: LU factorisation with partial pivoting
 !! and the matching solve, in the style of LAPACK's getrf/getrs.
 !!
 !! Reference LAPACK has no real128 routines, so these are written here. A pivot whose
@@ -7,12 +8,11 @@
 !!
 !! `lu_factor_dp`/`lu_solve_dp` are the real64 counterparts: they call LAPACK
 !! (dgetf2/dgetrf, dlaswp + BLAS dtrsv, dgetrs) through explicit interfaces with real64
-!! arrays (never real128 data). Measured for n = 15..93: with the reference LAPACK/BLAS the
-!! unblocked dgetf2 beats dgetrf by 1.3-2.5x, with OpenBLAS (installed by
-!! tools/install-deps.sh) dgetrf wins from n ~ 30 on (4x at n = 93); hence dgetf2 below
-!! `blocked_lu_size`. One right-hand side is solved by plain substitution loops below
-!! `blas_solve_size` (measured 1.2-1.7x faster than dlaswp + OpenBLAS dtrsv for
-!! n = 15..60, whose per-call overhead dominates there) and by dlaswp + dtrsv above.
+!! arrays (never real128 data). At the orders of typical Newton systems the unblocked
+!! dgetf2 is faster than the blocked dgetrf, which wins for larger matrices with an
+!! optimised BLAS such as OpenBLAS: hence dgetf2 below `blocked_lu_size`. One right-hand
+!! side is solved by plain substitution loops below `blas_solve_size`, where the per-call
+!! overhead of dlaswp + dtrsv dominates, and by dlaswp + dtrsv above.
 !! Newton uses them for mixed precision (a real64 factorisation, real128 residuals) and,
 !! in the real64 build, for everything. The LAPACK/BLAS calls run one thread at a time
 !! (an OpenMP critical section): a serial OpenBLAS is not safe for concurrent calls.
@@ -24,6 +24,10 @@ module holosym_linalg
     public :: lu_factor, lu_solve, default_pivot_tolerance
     public :: lu_factor_dp, lu_solve_dp, default_pivot_tolerance_dp
 
+    !> Below this order `lu_factor_dp` factors with its own loops (`small_lu`): the per-column
+    !! BLAS calls of dgetf2 cost more than the arithmetic there (about 6 times the
+    !! instructions at n = 25).
+    integer, parameter :: small_lu_size = 32
     !> From this order on `lu_factor_dp` uses the blocked dgetrf instead of dgetf2.
     integer, parameter :: blocked_lu_size = 32
     !> From this order on one right-hand side is solved with BLAS dtrsv.
@@ -231,7 +235,9 @@ contains
         ! buffers between concurrent calls (seen as run-to-run differences in the OpenMP
         ! `tables`; none with the reference LAPACK or inside this critical section).
         !$omp critical (holosym_lapack)
-        if (n < blocked_lu_size) then
+        if (n < small_lu_size) then
+            call small_lu(a, pivots)
+        else if (n < blocked_lu_size) then
             call dgetf2(n, n, a, size(a, 1), pivots, lapack_info)
         else
             call dgetrf(n, n, a, size(a, 1), pivots, lapack_info)
@@ -248,6 +254,38 @@ contains
         end do
         if (present(pivot_ratio)) pivot_ratio = smallest / scale
     end subroutine lu_factor_dp
+
+    !> Right-looking LU with partial pivoting in LAPACK's conventions (unit lower L and U
+    !! overwrite A, pivots(k) = the row swapped with row k), for small orders. Exact zero
+    !! pivots are left for the caller's threshold test.
+    pure subroutine small_lu(a, pivots)
+        real(dp), intent(inout) :: a(:, :) !! A (n x n) in, factors out
+        integer, intent(out) :: pivots(:)  !! row interchanges
+        real(dp) :: swap(size(a, 2)), largest
+        integer :: n, k, i, j, p
+        n = size(a, 1)
+        do k = 1, n
+            p = k
+            largest = abs(a(k, k))
+            do i = k + 1, n
+                if (abs(a(i, k)) > largest) then
+                    p = i
+                    largest = abs(a(i, k))
+                end if
+            end do
+            pivots(k) = p
+            if (p /= k) then
+                swap = a(k, :)
+                a(k, :) = a(p, :)
+                a(p, :) = swap
+            end if
+            if (a(k, k) == 0) cycle
+            a(k + 1:n, k) = a(k + 1:n, k) / a(k, k)
+            do j = k + 1, n
+                a(k + 1:n, j) = a(k + 1:n, j) - a(k + 1:n, k) * a(k, j)
+            end do
+        end do
+    end subroutine small_lu
 
     !> Solve A x = b with the factors from `lu_factor_dp`; `b` (n x nrhs) is overwritten.
     subroutine lu_solve_dp(lu, pivots, b)
