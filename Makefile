@@ -18,22 +18,30 @@
 #   make docs                 API pages with FORD (into build/doc), fails on any warning
 #   make docs-tables          docs/tables.md       (holosym tables, seconds)
 #   make docs-stability       docs/stability.md    (holosym extremes, minutes)
-#   make docs-performance     docs/performance.md and docs/work_precision.png
-#                             (make bench, about ten minutes)
+#   make docs-performance     docs/performance.md and docs/figures (= make bench)
+# Benchmark (heyoka in a venv, holosym's RATTLE compositions, chain scaling):
+#   make bench                sweeps in both builds, scaling, plots into docs/figures and
+#                             docs/performance.md (about an hour of CPU on one core)
+#   make bench-long           the long runs against heyoka (about an hour), then the report
+#   make bench-quick          the whole bench pipeline in a few minutes (build/bench-quick)
 # Ensembles and MPI:
 #   make test-mpi             the MPI build (installs OpenMPI) and its tests: ensembles and
 #                             tables cells on 1-3 ranks give the serial files byte for byte
 #   make scaling              ensemble throughput (threads, ranks) into docs/ensemble.md
-# Other targets: make bench, make pendulum, make linkage, make examples, make mpi,
-# make deps, make clean. Every target that needs an extra tool (cmake, flang, FORD) installs it.
+# Other targets: make pendulum, make linkage, make examples, make mpi, make deps,
+# make clean. Every target that needs an extra tool (cmake, flang, FORD, heyoka, MPI)
+# installs it.
 
 FPM ?= fpm
 FPM_FLAGS ?= --profile release
 SIMULATE_ARGS ?= --M 2 --N 1 --G 3 --h 0.125 --T 10 --every 8
 BENCH_DIR ?= build/bench
 BENCH_ARGS ?=
-# Arguments of the benchmark run behind docs/performance.md.
-DOCS_BENCH_ARGS ?= --budget 0.5
+SCALING_ARGS ?=
+LONG_ARGS ?=
+# The benchmark's Python (heyoka, numpy, matplotlib), made by tools/bench_venv.sh.
+BENCH_VENV ?= build/venv
+BENCH_PYTHON = $(BENCH_VENV)/bin/python
 # The real64 build of the whole library (see src/core/holosym_kinds.F90).
 REAL64_FLAGS ?= --flag "-DHOLOSYM_REAL64"
 PREFIX ?= /usr/local
@@ -44,10 +52,10 @@ PYTHON ?= python3
 DOCS_VENV ?= build/venv-docs
 CMAKE_DIR ?= build/cmake
 
-.PHONY: all deps include-digest test test64 tables bench pendulum linkage examples clean \
-	install check-install check-fpm-install cmake-deps cmake-test flang-deps test-flang \
-	check-examples check-version check-fpm-dependency profile docs docs-deps docs-tables \
-	docs-stability docs-performance mpi test-mpi scaling
+.PHONY: all deps include-digest test test64 tables bench bench-long bench-quick bench-report \
+	pendulum linkage examples clean install check-install check-fpm-install cmake-deps \
+	cmake-test flang-deps test-flang check-examples check-version check-fpm-dependency \
+	profile docs docs-deps docs-tables docs-stability docs-performance mpi test-mpi scaling
 
 all: test
 
@@ -74,14 +82,54 @@ tables: deps include-digest
 test64: deps include-digest
 	$(FPM) test $(REAL64_FLAGS)
 
-# real128 sweep (writes the reference), real64 sweep against it, summary, plot.
+# The benchmark: heyoka (pip, in $(BENCH_VENV)) measured in the same runs as holosym and
+# its RATTLE compositions, real128 sweep (writes the reference), real64 sweep against it,
+# the chain scaling study in both builds; then the summary, the plots and
+# docs/performance.md (which this target owns, with docs/figures/work_precision.png and
+# docs/figures/scaling.png).
 bench: deps include-digest
-	$(FPM) run $(FPM_FLAGS) -- bench --out $(BENCH_DIR) $(BENCH_ARGS)
+	./tools/bench_venv.sh $(BENCH_VENV) > /dev/null
+	mkdir -p $(BENCH_DIR)
+	./tools/bench_environment.sh $(BENCH_PYTHON) > $(BENCH_DIR)/environment.txt
+	$(FPM) run $(FPM_FLAGS) -- bench --out $(BENCH_DIR) --heyoka $(BENCH_PYTHON) $(BENCH_ARGS)
 	$(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) -- bench --out $(BENCH_DIR) \
-		--reference $(BENCH_DIR)/reference.csv $(BENCH_ARGS)
+		--reference $(BENCH_DIR)/reference.csv --heyoka $(BENCH_PYTHON) $(BENCH_ARGS)
+	$(FPM) run $(FPM_FLAGS) -- bench --scaling --out $(BENCH_DIR) $(SCALING_ARGS)
+	$(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) -- bench --scaling --out $(BENCH_DIR) $(SCALING_ARGS)
+	$(MAKE) bench-report
+
+# The long runs (planar pendulum to T = 1e4 and 1e5, spherical pendulum to 1e4) against
+# heyoka, into $(BENCH_DIR)/long.csv; about an hour of CPU. Then docs/performance.md again.
+bench-long: deps include-digest
+	./tools/bench_venv.sh $(BENCH_VENV) > /dev/null
+	mkdir -p $(BENCH_DIR)
+	$(FPM) run $(FPM_FLAGS) -- bench --long --out $(BENCH_DIR) --heyoka $(BENCH_PYTHON) \
+		$(LONG_ARGS)
+	$(MAKE) bench-report
+
+# Summary, plots and docs/performance.md from the CSV files in $(BENCH_DIR).
+bench-report: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- bench --summarize $(BENCH_DIR) > /dev/null
-	./tools/plot_bench.sh $(BENCH_DIR)
+	BENCH_VENV=$(BENCH_VENV) ./tools/plot_bench.sh $(BENCH_DIR)
+	mkdir -p docs/figures
+	cp $(BENCH_DIR)/performance.md docs/performance.md
+	cp $(BENCH_DIR)/work_precision.png docs/figures/work_precision.png
+	if [ -f $(BENCH_DIR)/scaling.png ]; then cp $(BENCH_DIR)/scaling.png docs/figures/; fi
 	@cat $(BENCH_DIR)/summary.md
+
+# The whole pipeline in a few minutes (short sweeps, K <= 8, short long runs), into
+# build/bench-quick; docs/ is not touched. BENCH_QUICK_ARGS narrows it further (CI:
+# --systems planar --no-per-step).
+BENCH_QUICK_ARGS ?=
+bench-quick: deps include-digest
+	./tools/bench_venv.sh $(BENCH_VENV) > /dev/null
+	$(FPM) run $(FPM_FLAGS) -- bench --quick --out build/bench-quick --heyoka $(BENCH_PYTHON) \
+		$(BENCH_QUICK_ARGS)
+	$(FPM) run $(FPM_FLAGS) -- bench --scaling --quick --out build/bench-quick
+	$(FPM) run $(FPM_FLAGS) -- bench --long --quick --out build/bench-quick \
+		--heyoka $(BENCH_PYTHON)
+	$(FPM) run $(FPM_FLAGS) -- bench --summarize build/bench-quick > /dev/null
+	BENCH_VENV=$(BENCH_VENV) ./tools/plot_bench.sh build/bench-quick
 
 pendulum: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- simulate --system pendulum $(SIMULATE_ARGS)
@@ -254,14 +302,8 @@ docs-stability: deps include-digest
 	$(PYTHON) tools/docs_page.py docs/templates/stability.md docs/stability.md \
 		"make docs-stability" -- $(FPM) run $(FPM_FLAGS) -- extremes
 
-# The benchmark's progress goes to stderr; its summary (Markdown) becomes the page.
-docs-performance: deps include-digest
-	rm -rf build/docs-bench
-	$(PYTHON) tools/docs_page.py docs/templates/performance.md docs/performance.md \
-		"make docs-performance" -- sh -c '$(MAKE) --no-print-directory bench \
-		BENCH_DIR=build/docs-bench BENCH_ARGS="$(DOCS_BENCH_ARGS)" >&2 && \
-		cat build/docs-bench/summary.md'
-	cp build/docs-bench/work_precision.png docs/work_precision.png
+# docs/performance.md and its figures are written by the benchmark itself.
+docs-performance: bench
 
 clean:
 	$(FPM) clean --all
