@@ -5,16 +5,14 @@
 !!
 !!     fpm run --profile release --example pendulum_ensemble
 !!
-!! Output (the "done" lines come in the order of completion, which depends on the threads;
-!! the table does not; the sink is in ensemble_printer.f90):
-!!     done: id  1, 160 steps, code 0
+!! Output (16 "done" lines from the sink in ensemble_printer.f90, in the order of
+!! completion, which depends on the threads; then the table, in id order):
 !!     ...
-!!     done: id 16, 160 steps, code 0
 !!     id  angle  x(T)        y(T)        max|dH/H0|
 !!      1   0.10  -8.415E-02  -9.965E-01   6.984E-15
 !!      ...
 !!     16   1.60  -7.772E-01  -6.293E-01   6.896E-10
-!!     failures: 0; Newton iterations: 13488
+!!     failures: 0; Newton iterations: 13489
 program pendulum_ensemble
     use holosym, only: wp, ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
         run_ensemble, holosym_status_t

@@ -16,7 +16,9 @@ executable instead) and its standard output compared with that block, line by li
   the expected and the printed value are at most 1e-30 in magnitude (about 5000 epsilon
   of real128) they pass whatever their digits;
 - on lines that report CPU time (containing "s/step", "speed-up" or "seconds") the
-  numbers are not compared, only the text.
+  numbers are not compared, only the text;
+- a line that is exactly `...` stands for any number of printed lines (output whose
+  order depends on threads, or that is too long to show).
 
 `--update` rewrites the header blocks with today's output instead of comparing.
 
@@ -85,6 +87,34 @@ def compare_line(expected, actual):
         if abs(x - y) > RELATIVE * max(abs(x), abs(y)):
             return f"{a} instead of {e}"
     return None
+
+
+def compare_block(expected, actual):
+    """Reasons why the printed lines do not match the expected ones (empty when they do);
+    an expected `...` matches any run of printed lines, the shortest that lets the rest
+    match."""
+    if "..." not in expected:
+        problems = []
+        if len(expected) != len(actual):
+            problems.append(f"{len(actual)} lines printed, {len(expected)} expected")
+        for number, (e, a) in enumerate(zip(expected, actual), 1):
+            reason = compare_line(e, a)
+            if reason:
+                problems.append(f"line {number}: {reason}\n  expected: {e}\n  printed:  {a}")
+        return problems
+
+    def matches(i, j):
+        if i == len(expected):
+            return j == len(actual)
+        if expected[i] == "...":
+            return any(matches(i + 1, k) for k in range(j, len(actual) + 1))
+        return j < len(actual) and compare_line(expected[i], actual[j]) is None and \
+            matches(i + 1, j + 1)
+
+    if matches(0, 0):
+        return []
+    return ["the printed lines do not match the expected ones (with '...' lines):\n"
+            + "\n".join("  printed:  " + a for a in actual)]
 
 
 def run_example(name, runner):
@@ -176,13 +206,7 @@ def main():
             expected_outputs[path.stem] = actual
             continue
         expected_outputs[path.stem] = expected
-        problems = []
-        if len(expected) != len(actual):
-            problems.append(f"{len(actual)} lines printed, {len(expected)} expected")
-        for number, (e, a) in enumerate(zip(expected, actual), 1):
-            reason = compare_line(e, a)
-            if reason:
-                problems.append(f"line {number}: {reason}\n  expected: {e}\n  printed:  {a}")
+        problems = compare_block(expected, actual)
         if problems:
             failures += 1
             print(f"FAIL {path.name}")
