@@ -17,7 +17,7 @@ executable instead) and its standard output compared with that block, line by li
   of real128) they pass whatever their digits;
 - on lines that report CPU time (containing "s/step", "speed-up" or "seconds") the
   numbers are not compared, only the text;
-- a line that is exactly `...` stands for any number of printed lines (output whose
+- a line that is `...` (blanks aside) stands for any number of printed lines (output whose
   order depends on threads, or that is too long to show).
 
 `--update` rewrites the header blocks with today's output instead of comparing.
@@ -93,7 +93,7 @@ def compare_block(expected, actual):
     """Reasons why the printed lines do not match the expected ones (empty when they do);
     an expected `...` matches any run of printed lines, the shortest that lets the rest
     match."""
-    if "..." not in expected:
+    if all(e.strip() != "..." for e in expected):
         problems = []
         if len(expected) != len(actual):
             problems.append(f"{len(actual)} lines printed, {len(expected)} expected")
@@ -106,7 +106,7 @@ def compare_block(expected, actual):
     def matches(i, j):
         if i == len(expected):
             return j == len(actual)
-        if expected[i] == "...":
+        if expected[i].strip() == "...":
             return any(matches(i + 1, k) for k in range(j, len(actual) + 1))
         return j < len(actual) and compare_line(expected[i], actual[j]) is None and \
             matches(i + 1, j + 1)
