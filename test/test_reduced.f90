@@ -2,7 +2,7 @@
 !! general scheme to round-off on every model, its band does not grow with a chain's length,
 !! it rejects bad structure declarations, and it keeps the state on failures.
 module test_reduced
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE
     use holosym_problem, only: constrained_hamiltonian
@@ -66,6 +66,7 @@ contains
         tests = [ &
             new_test("agrees_with_general_scheme", agrees_with_general), &
             new_test("no_constraints", no_constraints), &
+            new_test("loose_tolerance_real64_iterations_only", loose_tolerance), &
             new_test("dense_output_and_multipliers_agree", dense_output_agrees), &
             new_test("sparse_and_dense_derivatives_agree", sparse_equals_dense), &
             new_test("band_independent_of_chain_length", band_independent), &
@@ -146,6 +147,39 @@ contains
                             "oscillator n = " // int_str(n))
         end do
     end subroutine no_constraints
+
+    !> A Newton tolerance the real64 iterations meet (1e-12) needs no working-precision
+    !! residual, and the states stay within that tolerance of full-accuracy ones.
+    subroutine loose_tolerance(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum) :: sys
+        type(constrained_integrator) :: loose, full
+        type(holosym_status_t) :: status
+        real(wp) :: ql(3), pl(3), qf(3), pf(3)
+        sys = spherical_pendulum()
+        call sys%initial_state(ql, pl)
+        qf = ql
+        pf = pl
+        loose%newton%tolerance = 1.0e-12_wp
+        call loose%init(sys, 4, 3, 5, status)
+        call full%init(sys, 4, 3, 5, status)
+        call loose%integrate(sys, ql, pl, 0.25_wp, 20, status=status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "loose run")
+        call full%integrate(sys, qf, pf, 0.25_wp, 20, status=status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "full run")
+        if (allocated(error)) return
+        call check(error, max(maxval(abs(ql - qf)), maxval(abs(pl - pf))) <= 1.0e-11_wp, &
+            "loose and full runs differ by " // &
+            real_str(max(maxval(abs(ql - qf)), maxval(abs(pl - pf)))))
+        if (precision(1.0_wp) > precision(1.0_dp)) then
+            call check(error, loose%stats%residual_evaluations == 0 .and. &
+                loose%stats%lowered_residual_evaluations > 0, "working-precision " // &
+                "residuals with tolerance 1e-12: " // &
+                int_str(int(loose%stats%residual_evaluations)))
+            call check(error, full%stats%residual_evaluations >= 20, "full accuracy uses " // &
+                "working-precision residuals")
+        end if
+    end subroutine loose_tolerance
 
     !> Dense output (q~, p~, lambda~ inside the last step) and the multipliers at the nodes
     !! are the same polynomials on both paths.

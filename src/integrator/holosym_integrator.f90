@@ -59,6 +59,8 @@ module holosym_integrator
     !> A step whose end state misses a constraint by more than this (scaled as in
     !! manifold_residuals) has not converged: sqrt(epsilon).
     real(wp), parameter :: end_state_tolerance = sqrt(epsilon(1.0_wp))
+    !> ... or this many times a looser Newton tolerance (`newton%tolerance`).
+    real(wp), parameter :: end_state_factor = 1024
 
     !> The reduced step falls back on the general one for systems with at most this many
     !! general unknowns (its dense workspace is then at most a few megabytes).
@@ -267,9 +269,17 @@ contains
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: position, velocity, scaled_position, scaled_velocity
+        real(wp) :: position, velocity, scaled_position, scaled_velocity, tolerance
         character(len=:), allocatable :: rank_message
+        logical :: continuing
 
+        ! The end state of this integrator's last step passed its end-state check: as the
+        ! next start it needs no rank test (step-by-step callers do not pay one per step)
+        ! and meets the end-state tolerance (looser than `manifold_tolerance` when the
+        ! Newton tolerance is).
+        continuing = continues_last_step(self, q, p)
+        tolerance = self%manifold_tolerance
+        if (continuing) tolerance = max(tolerance, end_tolerance(self))
         if (.not. self%ready) then
             call set_status(status, HOLOSYM_NOT_INITIALIZED, "call init before step or integrate")
         else if (.not. settings_valid(self, rank_message)) then
@@ -286,7 +296,7 @@ contains
                 // "finite; got h = " // real_str(h))
         else if (.not. (all(is_finite(q)) .and. all(is_finite(p)))) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "q or p contains NaN or Inf")
-        else if (.not. rank_test(self, sys, q, rank_message)) then
+        else if (.not. continuing .and. .not. rank_test(self, sys, q, rank_message)) then
             call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, rank_message)
         else
             call state_residuals(self, sys, q, p, position, velocity, scaled_position, &
@@ -295,17 +305,17 @@ contains
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, &
                     "constraint, constraint_jacobian " &
                     // "or dh_dp returned NaN or Inf at the start state")
-            else if (scaled_position > self%manifold_tolerance) then
+            else if (scaled_position > tolerance) then
                 call set_status(status, HOLOSYM_OFF_MANIFOLD, "start state violates the " // &
                     "constraints: max|phi| = " // real_str(position) // " (scaled " // &
                     real_str(scaled_position) // " > tolerance " // &
-                    real_str(self%manifold_tolerance) // "); project it first")
-            else if (scaled_velocity > self%manifold_tolerance) then
+                    real_str(tolerance) // "); project it first")
+            else if (scaled_velocity > tolerance) then
                 call set_status(status, HOLOSYM_OFF_MANIFOLD, &
                     "start state violates the hidden " // &
                     "constraint: max|Phi H_p| = " // real_str(velocity) // " (scaled " // &
                     real_str(scaled_velocity) // " > tolerance " // &
-                    real_str(self%manifold_tolerance) // "); project it first")
+                    real_str(tolerance) // "); project it first")
             else
                 call set_status(status, HOLOSYM_SUCCESS, "")
             end if
@@ -366,6 +376,13 @@ contains
         end if
         settings_valid = len(message) == 0
     end function settings_valid
+
+    !> Largest scaled constraint residual of an accepted end state: `end_state_tolerance`,
+    !! or `end_state_factor` times a looser Newton tolerance.
+    pure real(wp) function end_tolerance(self)
+        class(constrained_integrator), intent(in) :: self
+        end_tolerance = max(end_state_tolerance, end_state_factor * self%newton%tolerance)
+    end function end_tolerance
 
     !> `manifold_residuals`, through Phi's sparse pattern on the reduced path.
     subroutine state_residuals(self, sys, q, p, position, velocity, scaled_position, &
@@ -646,8 +663,8 @@ contains
                                     velocity, scaled_position, scaled_velocity)
             if (sys%m > 0) self%scheme%counters%gradients = self%scheme%counters%gradients + 1
             end_velocity_residual = velocity
-            if (.not. (scaled_position <= end_state_tolerance .and. &
-                       scaled_velocity <= end_state_tolerance)) then
+            if (.not. (scaled_position <= end_tolerance(self) .and. &
+                       scaled_velocity <= end_tolerance(self))) then
                 call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton stopped at a " // &
                     "point off the constraints (end state max|phi| = " // real_str(position) // &
                     ", max|Phi H_p| = " // real_str(velocity) // ")")
@@ -707,8 +724,8 @@ contains
             self%p_end_work = p + self%dp_work
             call state_residuals(self, sys, self%q_end_work, self%p_end_work, position, &
                                  velocity, scaled_position, scaled_velocity)
-            if (.not. (scaled_position <= end_state_tolerance .and. &
-                       scaled_velocity <= end_state_tolerance)) then
+            if (.not. (scaled_position <= end_tolerance(self) .and. &
+                       scaled_velocity <= end_tolerance(self))) then
                 call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton stopped at a " // &
                     "point off the constraints (end state max|phi| = " // real_str(position) // &
                     ", max|Phi H_p| = " // real_str(velocity) // ")")

@@ -753,14 +753,21 @@ contains
 
     end subroutine assemble
 
-    !> Step results from the working-precision evaluation at x: q_b - q_a = z_M and
-    !! p_b - p_a. Requires `residual` to have been evaluated at exactly this x.
-    subroutine reduced_increments(self, dq, dpb)
+    !> Step results from the last evaluation: q_b - q_a = z_M and p_b - p_a, from the
+    !! working-precision evaluation (`residual`) or, with `lowered`, the real64 one
+    !! (`residual_lowered`, real64 accuracy).
+    subroutine reduced_increments(self, dq, dpb, lowered)
         class(reduced_scheme_t), intent(in) :: self
         real(wp), intent(out) :: dq(:)   !! q_b - q_a
         real(wp), intent(out) :: dpb(:)  !! p_b - p_a
-        dq = self%ev%z(:, self%order_m)
-        dpb = self%ev%dp
+        logical, intent(in) :: lowered   !! from the real64 evaluation
+        if (lowered) then
+            dq = real(self%low%z(:, self%order_m), wp)
+            dpb = real(self%low%dp, wp)
+        else
+            dq = self%ev%z(:, self%order_m)
+            dpb = self%ev%dp
+        end if
     end subroutine reduced_increments
 
     !> First-order change of p_b - p_a for a change `delta` of the unknowns from the

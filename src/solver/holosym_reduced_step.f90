@@ -24,8 +24,10 @@ module holosym_reduced_step
     real(wp), parameter :: lowered_tolerance = 1.0e-13_wp
     !> ... or stop decreasing below this one.
     real(wp), parameter :: lowered_floor = 1.0e-10_wp
-    !> Kept factors that contract worse than this per iteration are replaced.
+    !> Kept factors that contract worse than this per iteration are replaced ...
     real(wp), parameter :: contraction_limit = 0.1_wp
+    !> ... and so are factors that would need more than this many further corrections.
+    real(dp), parameter :: slow_limit = 4
     !> With `prefer_fresh`, kept factors are tried again after this many steps.
     integer, parameter :: retry_kept_every = 8
     !> At the end of the real64 phase, factors contracting worse than this are replaced
@@ -252,10 +254,12 @@ contains
                     return
                 case (ACTION_CONVERGED)
                     self%x = self%x - real(self%delta, wp)
-                    if (.not. lowered) then
+                    if (.not. lowered .or. tolerance >= lowered_tolerance) then
                         ! Accepted without a confirming residual: the step's results from
-                        ! the evaluation at the last iterate, updated to first order.
-                        call self%scheme%increments(dq, dpb)
+                        ! the evaluation at the last iterate, updated to first order. A
+                        ! tolerance the real64 phase meets needs no working-precision
+                        ! residual at all.
+                        call self%scheme%increments(dq, dpb, lowered)
                         call self%scheme%linear_dp_change(-self%delta, self%f(1:size(dpb)))
                         dq = self%x(self%scheme%layout%z_col(:, self%scheme%order_m))
                         dpb = dpb + self%f(1:size(dpb))
@@ -361,15 +365,27 @@ contains
         refresh_pays = ceiling(renew) + jacobian_cost < ceiling(keep)
     end function refresh_pays
 
+    !> True when factors contracting by `rate` would need more than `slow_limit` further
+    !! corrections from `correction` down to `target`: new factors (Newton converging
+    !! quadratically) cost less then.
+    pure logical function slow_iterations(rate, correction, target)
+        real(wp), intent(in) :: rate, correction, target
+        slow_iterations = .false.
+        if (rate <= 0 .or. rate >= 1 .or. correction <= target) return
+        slow_iterations = log(real(target / correction, dp)) / log(real(rate, dp)) > slow_limit
+    end function slow_iterations
+
     !> What to do after a Newton correction of relative size `correction` (`previous`: the
     !! one before with the same factors, huge when none; `last_rate`: the contraction
-    !! before that, 0 when none): CONVERGED when it, or the error predicted from the
-    !! contraction rate theta, theta / (1 - theta) correction with theta the larger of the
-    !! last two rates (the rate of kept factors varies), is within `target` (the latter
-    !! with the margin `rate_margin`), or when
-    !! corrections stop decreasing (by `stagnation_rate`) below `floor` (round-off); REFACTOR when kept factors
-    !! contract worse than `contraction_limit` far from the target; DIVERGED after `max_growth` growing
-    !! corrections with fresh factors; else ITERATE.
+    !! before that, 0 when none):
+    !! - CONVERGED when the correction, or the error predicted from the contraction rate
+    !!   theta, theta / (1 - theta) correction with theta the larger of the last two rates
+    !!   (with the margin `rate_margin`), is within `target`; or when corrections stop
+    !!   decreasing (by `stagnation_rate`) below `floor` (round-off);
+    !! - REFACTOR, far from the target, when factors formed at an earlier iterate contract
+    !!   worse than `contraction_limit` or too slowly to reach it soon (`slow_iterations`);
+    !! - DIVERGED after `max_growth` growing corrections with fresh factors;
+    !! - else ITERATE.
     integer function next_action(correction, previous, last_rate, target, floor, fresh, &
                                  growth) result(action)
         real(wp), intent(in) :: correction, previous, last_rate, target, floor
@@ -399,8 +415,8 @@ contains
             if (rate > stagnation_rate) action = ACTION_CONVERGED
             return
         end if
-        if (rate > contraction_limit .and. .not. fresh .and. &
-            correction > refactor_floor * target) then
+        if (.not. fresh .and. correction > refactor_floor * target .and. &
+            (rate > contraction_limit .or. slow_iterations(rate, correction, target))) then
             action = ACTION_REFACTOR
         else if (rate >= 1) then
             growth = growth + 1
