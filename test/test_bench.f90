@@ -709,7 +709,8 @@ contains
         call check(error, reduced == 4 .and. general == 3, int_str(reduced) // " reduced, " // &
             int_str(general) // " general lines, expected 4 and 3")
         call read_lines(dir // "/performance.md", page, ios)
-        call check(error, ios == 0 .and. has_line(page, "## Scaling: a chain of K planar pendula"), &
+        call check(error, ios == 0 .and. &
+            has_line(page, "## Scaling: a chain of K planar pendula"), &
             "performance.md has the scaling section")
         call run_holosym(words("bench", "--scaling-point", "0"), result)
         call check(error, result%exit_code /= 0, "--scaling-point 0 is refused")

@@ -91,9 +91,10 @@ contains
             ]
     end function scheme_tests
 
-    !> Both instances of each kernel template were compiled from the template now in include/: each records
-    !! the template's SHA-256, and fpm rebuilds a module only when its own source changes,
-    !! so an edit of the template without tools/include_digest.sh (run by make) shows here.
+    !> Both instances of each kernel template were compiled from the template now in
+    !! include/: each records the template's SHA-256, and fpm rebuilds a module only when
+    !! its own source changes, so an edit of the template without tools/include_digest.sh
+    !! (run by make) shows here.
     subroutine kernels_template_current(error)
         type(test_error_t), allocatable, intent(out) :: error
         call check_template(error, "include/holosym_scheme_kernels.inc", template_sha256_wp, &

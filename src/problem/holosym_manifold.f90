@@ -168,7 +168,8 @@ contains
             end do
             do k = 2, min(width + 1, sys%m - j + 1)
                 do i = k, min(width + 1, sys%m - j + 1)
-                    band(i - k + 1, j + k - 1) = band(i - k + 1, j + k - 1) - band(i, j) * band(k, j)
+                    band(i - k + 1, j + k - 1) = band(i - k + 1, j + k - 1) - &
+                        band(i, j) * band(k, j)
                 end do
             end do
         end do

@@ -49,7 +49,8 @@ module holosym_model_chain
 contains
 
     !> A chain of `links` pendula; masses and lengths default to 1 (arrays repeated
-    !! cyclically along the chain: one value for all links, or one per link), gravity to 1. The double pendulum of masses 1 and 2 and rods 1 and 0.7:
+    !! cyclically along the chain: one value for all links, or one per link), gravity to 1.
+    !! The double pendulum of masses 1 and 2 and rods 1 and 0.7:
     !! `pendulum_chain(2, masses=[1.0_wp, 2.0_wp], lengths=[1.0_wp, 0.7_wp])`.
     pure function new_pendulum_chain(links, masses, lengths, gravity) result(sys)
         integer, intent(in) :: links                 !! K >= 1

@@ -964,7 +964,8 @@ contains
         if (.not. self%linear_increments) return
         if (.not. (self%cache_valid .and. self%step_hessians)) return
         if (self%cache_lowered .or. self%jacobian_mode /= JACOBIAN_ASSEMBLED) return
-        size_of_state = max(1.0_wp, maxval(abs(self%step%qa)), maxval(abs(self%step%pa)), maxval(abs(x)))
+        size_of_state = max(1.0_wp, maxval(abs(self%step%qa)), maxval(abs(self%step%pa)), &
+                            maxval(abs(x)))
         delta = maxval(abs(x - self%cached_x))
         ! The second derivatives may come from a lowered evaluation (real64 round-off).
         distance = maxval(abs(x - self%hessian_x)) + real(epsilon(1.0_dp), wp) * size_of_state
