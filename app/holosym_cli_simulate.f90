@@ -134,7 +134,13 @@ contains
             "Options (also accepted as --name=value):", &
             "  --system NAME  pendulum: spherical pendulum, paper Example 1 (n = 3, m = 1)", &
             "                 linkage:  spring-linkage mechanism, Example 2 (n = 6, m = 3)", &
-            "                 planar:   planar pendulum (n = 2, m = 1)       [pendulum]", &
+            "                 planar:   planar pendulum (n = 2, m = 1)", &
+            "                 double:   double pendulum, masses 1, 2, rods 1, 0.7 (n = 4, m = 2)", &
+            "                 dumbbell: two bodies on a sphere joined by a rod (n = 6, m = 3)", &
+            "                 magnetic: charged particle on a sphere in a magnetic field,", &
+            "                           H not separable (n = 3, m = 1)", &
+            "                 generic:  spherical pendulum in a potential without rotational", &
+            "                           symmetry (n = 3, m = 1)              [pendulum]", &
             "  --M INT        degree of the displacement polynomial, >= 1    [2]", &
             "  --N INT        degree of the momentum polynomial, >= 0        [M - 1]", &
             "  --G INT        Gauss-Legendre points, >= 1                    [max(M, N) + 1]", &

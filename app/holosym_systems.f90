@@ -1,11 +1,18 @@
 !> The systems the `holosym` command knows by name, each with its initial state: the
-!! spherical pendulum (paper Example 1), the spring-linkage mechanism (Example 2) and the
-!! planar pendulum. Every command and study that takes a system name gets the model here.
+!! spherical pendulum (paper Example 1), the spring-linkage mechanism (Example 2), the
+!! planar pendulum, and the catalogue beyond the paper: the double pendulum, two bodies
+!! on a sphere joined by a rod, a charged particle on a sphere in a magnetic field and a
+!! spherical pendulum in a generic potential. Every command and study that takes a system
+!! name gets the model here.
 module holosym_systems
     use holosym_kinds, only: wp
     use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
+    use holosym_model_chain, only: pendulum_chain
+    use holosym_model_dumbbell, only: sphere_dumbbell
+    use holosym_model_magnetic, only: magnetic_sphere
+    use holosym_model_generic, only: generic_pendulum
     implicit none
     private
 
@@ -13,9 +20,14 @@ module holosym_systems
 
     !> The names, in the order of the help texts; the first is the default of the commands.
     character(len=*), parameter, public :: system_names(*) = [character(len=8) :: &
-        "pendulum", "linkage", "planar"]
+        "pendulum", "linkage", "planar", "double", "dumbbell", "magnetic", "generic"]
     !> The names as a message lists them.
-    character(len=*), parameter, public :: system_choices = "pendulum, linkage or planar"
+    character(len=*), parameter, public :: system_choices = &
+        "pendulum, linkage, planar, double, dumbbell, magnetic or generic"
+    !> Link angles (from the downward vertical) and angular velocities of the double
+    !! pendulum's start.
+    real(wp), parameter :: double_angles(2) = [1.0_wp, 0.5_wp]
+    real(wp), parameter :: double_rates(2) = [0.0_wp, 0.0_wp]
 
     interface
         !> Does nothing. Its body, in the submodule at the end of this file, keeps this
@@ -43,6 +55,10 @@ contains
         type(spherical_pendulum) :: sphere
         type(spring_linkage) :: linkage
         type(planar_pendulum) :: planar
+        type(pendulum_chain) :: chain
+        type(sphere_dumbbell) :: dumbbell
+        type(magnetic_sphere) :: magnetic
+        type(generic_pendulum) :: generic
 
         status%code = HOLOSYM_SUCCESS
         status%message = ""
@@ -62,6 +78,26 @@ contains
             allocate (q(planar%n), p(planar%n))
             call planar%initial_state(q, p)
             allocate (sys, source=planar)
+        case ("double")
+            chain = pendulum_chain(2, masses=[1.0_wp, 2.0_wp], lengths=[1.0_wp, 0.7_wp])
+            allocate (q(chain%n), p(chain%n))
+            call chain%state_from_angles(double_angles, double_rates, q, p)
+            allocate (sys, source=chain)
+        case ("dumbbell")
+            dumbbell = sphere_dumbbell()
+            allocate (q(dumbbell%n), p(dumbbell%n))
+            call dumbbell%initial_state(q, p)
+            allocate (sys, source=dumbbell)
+        case ("magnetic")
+            magnetic = magnetic_sphere()
+            allocate (q(magnetic%n), p(magnetic%n))
+            call magnetic%initial_state(q, p)
+            allocate (sys, source=magnetic)
+        case ("generic")
+            generic = generic_pendulum()
+            allocate (q(generic%n), p(generic%n))
+            call generic%initial_state(q, p)
+            allocate (sys, source=generic)
         case default
             status%code = HOLOSYM_INVALID_ARGUMENT
             status%message = "unknown system '" // name // "'"
