@@ -60,6 +60,7 @@ examples: deps include-digest
 	$(FPM) run $(FPM_FLAGS) --example spherical_pendulum
 	$(FPM) run $(FPM_FLAGS) --example spring_linkage
 	$(FPM) run $(FPM_FLAGS) --example planar_pendulum
+	$(FPM) run $(FPM_FLAGS) --example double_pendulum_start
 
 clean:
 	$(FPM) clean --all

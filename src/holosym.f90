@@ -23,14 +23,19 @@ module holosym
         full_rank_constraints
     use holosym_projection, only: project_to_manifold, projection_report_t, &
         projection_max_iterations_default
+    use holosym_initial_states, only: state_from_velocities
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
     use holosym_model_chain, only: pendulum_chain
+    use holosym_model_dumbbell, only: sphere_dumbbell
+    use holosym_model_magnetic, only: magnetic_sphere
+    use holosym_model_generic, only: generic_pendulum
     use holosym_newton, only: nonlinear_system, newton_solve, newton_settings_t, &
         newton_report_t, newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
     use holosym_scheme, only: discrete_scheme, scheme_counters_t, unknown_count, &
         JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer, &
-        integrator_stats_t
+        integrator_stats_t, step_dense_output
+    use holosym_observers, only: trajectory_writer, energy_monitor, trajectory_header
     use holosym_rattle, only: rattle_integrator, rattle_stats_t, composition_coefficients, &
         rattle_max_order
     implicit none
@@ -49,11 +54,15 @@ module holosym
     public :: gauss_legendre, gauss_lobatto
     public :: lagrange_values, lagrange_derivatives, lagrange_matrices
     ! The problem: the abstract system to extend, its default (difference) Hessians, the
-    ! constraint manifold, projection onto it, and the paper's models.
+    ! constraint manifold, projection onto it, the paper's models and the catalogue beyond
+    ! them (chain and double pendulum, dumbbell on a sphere, charged particle in a magnetic
+    ! field, pendulum in a generic potential).
     public :: constrained_hamiltonian, difference_hessian, difference_constraint_hessian
     public :: manifold_residuals, manifold_tolerance_default, full_rank_constraints
     public :: project_to_manifold, projection_report_t, projection_max_iterations_default
+    public :: state_from_velocities
     public :: spherical_pendulum, spring_linkage, planar_pendulum, pendulum_chain
+    public :: sphere_dumbbell, magnetic_sphere, generic_pendulum
     ! Solvers: dense LU (working precision; real64 through LAPACK) and Newton's method on
     ! any `nonlinear_system`.
     public :: lu_factor, lu_solve, default_pivot_tolerance
@@ -66,8 +75,12 @@ module holosym
     public :: discrete_scheme, scheme_counters_t, unknown_count
     public :: JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, &
         HESSIANS_DIFFERENCES
-    ! The integrator, its per-step diagnostics, observer and work counters.
-    public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t
+    ! The integrator, its per-step diagnostics, observer (with the dense output of the step
+    ! just taken) and work counters; the ready-made observers: CSV trajectory writer and
+    ! energy/constraint monitor.
+    public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t, &
+        step_dense_output
+    public :: trajectory_writer, energy_monitor, trajectory_header
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order
 
