@@ -2,8 +2,10 @@
 #   make test     install what is missing, build, run the test suite
 #   make tables   the paper's Tables 1-3 (convergence orders, minimum Gauss points)
 #   make bench    work-precision benchmark (real128 and real64 builds) into build/bench
+#   make figures  the figures of docs/figures.md: CSV from `holosym figures` into
+#                 build/figures, PNG into docs/figures (matplotlib in build/venv)
 # Other targets: make test64, make install-check, make pendulum, make linkage, make examples,
-# make deps.
+# make reference (the models' 50-digit reference solutions), make venv, make deps.
 
 FPM ?= fpm
 FPM_FLAGS ?= --profile release
@@ -12,9 +14,13 @@ BENCH_DIR ?= build/bench
 BENCH_ARGS ?=
 # The real64 build of the whole library (see src/core/holosym_kinds.F90).
 REAL64_FLAGS ?= --flag "-DHOLOSYM_REAL64"
+VENV ?= build/venv
+FIGURES_DATA ?= build/figures
+FIGURES_PNG ?= docs/figures
+FIGURES_ARGS ?=
 
 .PHONY: all deps include-digest test test64 install-check tables bench pendulum linkage \
-	examples clean
+	examples clean venv figures reference
 
 all: test
 
@@ -49,6 +55,21 @@ bench: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- bench --summarize $(BENCH_DIR) > /dev/null
 	./tools/plot_bench.sh $(BENCH_DIR)
 	@cat $(BENCH_DIR)/summary.md
+
+# Python with matplotlib and mpmath, for the figures and the reference solutions.
+venv:
+	@./tools/python_venv.sh $(VENV) matplotlib mpmath
+
+# Data of every figure from the library through the CLI, then the PNGs, then a check that
+# each PNG was drawn.
+figures: deps include-digest venv
+	$(FPM) run $(FPM_FLAGS) -- figures --out $(FIGURES_DATA) $(FIGURES_ARGS)
+	$(VENV)/bin/python tools/plot_figures.py $(FIGURES_DATA) $(FIGURES_PNG)
+	./tools/check_figures.sh $(FIGURES_PNG)
+
+# The models' independent reference states (50-digit index-1 solutions; ~10 minutes).
+reference: venv
+	$(VENV)/bin/python tools/reference/model_reference.py test/data/model_reference.csv
 
 pendulum: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- simulate --system pendulum $(SIMULATE_ARGS)

@@ -11,6 +11,7 @@ module holosym_cli
     use holosym_cli_tables, only: tables_command
     use holosym_cli_bench, only: bench_command
     use holosym_cli_extremes, only: extremes_command
+    use holosym_cli_figures, only: figures_command
     implicit none
     private
 
@@ -39,6 +40,7 @@ contains
             "  tables     measure the paper's Tables 1-2 and the minimum Gauss points", &
             "  bench      work-precision benchmark against composed RATTLE; speed options", &
             "  extremes   stability at the extremes: long runs, tiny/large steps, high orders", &
+            "  figures    the data of the figures in docs/figures.md, as CSV", &
             "", &
             "Run 'holosym COMMAND --help' (or 'holosym help COMMAND') for a command's options.", &
             "Exit status: 0 success, 1 the command failed, 2 bad usage."])
@@ -91,6 +93,8 @@ contains
             call bench_command(args, out_unit, err_unit, exit_code)
         case ("extremes")
             call extremes_command(args, out_unit, err_unit, exit_code)
+        case ("figures")
+            call figures_command(args, out_unit, err_unit, exit_code)
         case default
             write (err_unit, '(a)') "holosym: unknown command '" // name // &
                 "'; run 'holosym --help' for the list of commands"

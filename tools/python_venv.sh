@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Make the Python virtual environment of the figures and the reference solutions, with the
+# packages given (default: matplotlib mpmath), installing only what is missing.
+#   tools/python_venv.sh [DIR] [PACKAGE ...]     (make venv: build/venv)
+set -euo pipefail
+dir="${1:-build/venv}"
+shift || true
+packages=("$@")
+[ ${#packages[@]} -gt 0 ] || packages=(matplotlib mpmath)
+if [ ! -x "$dir/bin/python" ]; then
+    echo "python_venv: creating $dir" >&2
+    python3 -m venv "$dir"
+fi
+missing=()
+for package in "${packages[@]}"; do
+    "$dir/bin/python" -c "import $package" >/dev/null 2>&1 || missing+=("$package")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+    echo "python_venv: installing ${missing[*]} into $dir" >&2
+    "$dir/bin/python" -m pip install --quiet "${missing[@]}"
+fi
