@@ -5,7 +5,9 @@
 #   make figures  the figures of docs/figures.md: CSV from `holosym figures` into
 #                 build/figures, PNG into docs/figures (matplotlib in build/venv)
 # Other targets: make test64, make install-check, make pendulum, make linkage, make examples,
-# make reference (the models' 50-digit reference solutions), make venv, make deps.
+# make reference (the models' 50-digit reference solutions), make venv, make c-example
+# (the C interface: example/c built with gcc against the real128 library and run;
+# c-example64 the same with the real64 library), make deps.
 
 FPM ?= fpm
 FPM_FLAGS ?= --profile release
@@ -20,7 +22,7 @@ FIGURES_PNG ?= docs/figures
 FIGURES_ARGS ?=
 
 .PHONY: all deps include-digest test test64 install-check tables bench pendulum linkage \
-	examples clean venv figures reference
+	examples clean venv figures reference c-example c-example64
 
 all: test
 
@@ -70,6 +72,14 @@ figures: deps include-digest venv
 # The models' independent reference states (50-digit index-1 solutions; ~10 minutes).
 reference: venv
 	$(VENV)/bin/python tools/reference/model_reference.py test/data/model_reference.csv
+
+# The C example against the installed library, built with gcc and run (fails on a failed
+# check).
+c-example: deps include-digest
+	./tools/c_example.sh real128
+
+c-example64: deps include-digest
+	./tools/c_example.sh real64
 
 pendulum: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- simulate --system pendulum $(SIMULATE_ARGS)
