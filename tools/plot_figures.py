@@ -15,6 +15,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402,F401
 
 FLOOR = 1e-37  # stands in for exact zeros on log axes
 
@@ -151,9 +152,13 @@ def convergence(data, out):
                 xs = [x0, good[-1][0]]
                 ax.loglog(xs, [e0 / 10 * (x / x0) ** (2 * order) for x in xs], "--", lw=0.8,
                           color=color)
+    steps = sorted({float(row["h"]) for row in rows})
     for ax, title in zip(axes, ("energy error E = max |(H - H0)/H0|",
                                 "global error max |q(10) - q_ref(10)|")):
         ax.set_xlabel("h")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        ax.set_xticks(steps)
+        ax.set_xticklabels([f"1/{round(1 / x)}" for x in steps])
         ax.set_title(title, fontsize=10)
         ax.set_ylim(1e-34, 1)
         ax.grid(True, which="major", lw=0.3)
