@@ -155,7 +155,11 @@ contains
             int_str(size(lines) - 1))
         if (allocated(error)) return
         do k = 1, 4
-            row = 1 + 4 * k
+            ! The last pair of step sizes whose errors are above round-off (real64: M <= 3).
+            do row = 1 + 4 * k, 3 + 4 * (k - 1), -1
+                if (value_at(lines, row, 6) > 1.0e6_wp * eps) exit
+            end do
+            if (row < 3 + 4 * (k - 1)) cycle
             order = log(value_at(lines, row - 1, 6) / value_at(lines, row, 6)) / log(2.0_wp)
             call check(error, abs(order - 2 * k) < 0.3_wp, "convergence: M = " // &
                 int_str(k) // ", global order " // real_str(order))
