@@ -151,16 +151,21 @@ contains
         call csv_lines(error, "convergence.csv", "M,N,G,h,energy_error,global_error,status", &
                        lines)
         if (allocated(error)) return
-        call check(error, size(lines) == 17, "convergence: 16 rows, got " // &
-            int_str(size(lines) - 1))
+        ! 4 step sizes per M (fewer where the error reaches the round-off floor first).
+        call check(error, size(lines) >= 14 .and. size(lines) <= 17, "convergence: " // &
+            int_str(size(lines) - 1) // " rows")
         if (allocated(error)) return
         do k = 1, 4
-            ! The last pair of step sizes whose errors are above round-off (real64: M <= 3).
-            do row = 1 + 4 * k, 3 + 4 * (k - 1), -1
-                if (value_at(lines, row, 6) > 1.0e6_wp * eps) exit
+            ! The last pair of rows of this M with both errors above round-off.
+            order = -1
+            do row = 3, size(lines)
+                if (nint(value_at(lines, row, 1)) /= k .or. &
+                    nint(value_at(lines, row - 1, 1)) /= k) cycle
+                if (value_at(lines, row, 6) <= 1.0e6_wp * eps) cycle
+                order = log(value_at(lines, row - 1, 6) / value_at(lines, row, 6)) / &
+                    log(2.0_wp)
             end do
-            if (row < 3 + 4 * (k - 1)) cycle
-            order = log(value_at(lines, row - 1, 6) / value_at(lines, row, 6)) / log(2.0_wp)
+            if (order < 0) cycle
             call check(error, abs(order - 2 * k) < 0.3_wp, "convergence: M = " // &
                 int_str(k) // ", global order " // real_str(order))
         end do

@@ -19,7 +19,8 @@ module test_models
     use holosym_model_generic, only: generic_pendulum
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
         split_field
-    use holosym_test_commands, only: text_line_t, read_lines
+    use holosym_test_commands, only: text_line_t, read_lines, command_result_t, run_holosym, &
+        any_line_contains
     implicit none
     private
     public :: models_tests
@@ -44,7 +45,8 @@ contains
             new_test("start_states_on_the_manifold", start_states), &
             new_test("energy_and_constraints_along_a_run", energy_and_constraints), &
             new_test("agree_with_independent_reference", independent_reference), &
-            new_test("generic_potential_makes_M_ge_N_plus_2_nonsingular", generic_nonsingular)]
+            new_test("generic_potential_makes_M_ge_N_plus_2_nonsingular", generic_nonsingular), &
+            new_test("simulate_and_tables_accept_each_model", cli_accepts_models)]
     end function models_tests
 
     !> The model called `name` and its documented start state.
@@ -339,5 +341,32 @@ contains
         call check(error, info%pivot_ratio > 1.0e3_wp * eps, "generic pendulum: pivot ratio " &
             // real_str(info%pivot_ratio))
     end subroutine generic_nonsingular
+
+    !> `holosym simulate --system NAME` runs each catalogue model (the CSV has its n and
+    !! m), and `holosym tables --system NAME` accepts it.
+    subroutine cli_accepts_models(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(len=*), parameter :: names(*) = [character(len=8) :: "double", "dumbbell", &
+            "magnetic", "generic"]
+        character(len=*), parameter :: lambdas(*) = [character(len=8) :: "lambda2", &
+            "lambda3", "lambda1", "lambda1"]
+        type(command_result_t) :: result
+        integer :: s
+        do s = 1, size(names)
+            call run_holosym("simulate --system " // trim(names(s)) // " --steps 4", result)
+            call check(error, result%exit_code == 0 .and. size(result%out) == 6, &
+                "simulate --system " // trim(names(s)) // ": exit " // &
+                int_str(result%exit_code))
+            if (allocated(error)) return
+            call check(error, index(result%out(1)%text, trim(lambdas(s)) // ",H") > 0, &
+                trim(names(s)) // ": header " // result%out(1)%text)
+        end do
+        call run_holosym("tables --system magnetic --help", result)
+        call check(error, result%exit_code == 0 .and. any_line_contains(result%out, &
+            "generic"), "tables --help lists the catalogue")
+        call run_holosym("tables --system nosuch", result)
+        call check(error, result%exit_code == 2 .and. any_line_contains(result%err, &
+            "dumbbell"), "tables names the systems on a bad one")
+    end subroutine cli_accepts_models
 
 end module test_models

@@ -192,7 +192,8 @@ contains
         call sys%initial_state(q, p)
         path = scratch_path("observers_bad.csv")
         call writer%open(sys, q, p, status=status)
-        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "neither file nor unit")
+        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, &
+            "neither file nor unit")
         call writer%open(sys, q, p, file=path, unit=6, status=status)
         call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "file and unit")
         call writer%open(sys, q, p, file=path, digits=20, status=status)

@@ -106,7 +106,8 @@ class DoublePendulum(Model):
         r = [mpf(0), mpf(0)]
         v = [mpf(0), mpf(0)]
         for k in range(self.k):
-            r = [r[0] + lengths[k] * mpmath.sin(angles[k]), r[1] - lengths[k] * mpmath.cos(angles[k])]
+            r = [r[0] + lengths[k] * mpmath.sin(angles[k]),
+                 r[1] - lengths[k] * mpmath.cos(angles[k])]
             v = [v[0] + lengths[k] * self.rates[k] * mpmath.cos(angles[k]),
                  v[1] + lengths[k] * self.rates[k] * mpmath.sin(angles[k])]
             q += r
