@@ -13,6 +13,7 @@ module holosym_cli_simulate
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_manifold, only: manifold_residuals
+    use holosym_observers, only: trajectory_header
     use holosym_systems, only: make_system, is_system_name, system_names, system_choices
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, &
@@ -326,19 +327,8 @@ contains
         integer, intent(in) :: n !! number of coordinates
         integer, intent(in) :: m !! number of constraints
         character(len=:), allocatable :: header !! the header line
-        integer :: i
-        header = "t"
-        do i = 1, n
-            header = header // ",q" // int_str(i)
-        end do
-        do i = 1, n
-            header = header // ",p" // int_str(i)
-        end do
-        do i = 1, m
-            header = header // ",lambda" // int_str(i)
-        end do
-        header = header // ",H,energy_error,constraint_residual,velocity_residual," // &
-            "newton_iterations"
+        ! One definition of the columns, shared with the library's trajectory_writer.
+        header = trajectory_header(n, m)
     end function csv_header
 
     !> Run `simulate` with parsed settings: CSV to `out_unit` (or to `config%output`),

@@ -8,12 +8,13 @@
 !! CSV every 0.1 s from the dense output (`trajectory_writer` with `interval`) and reports
 !! the monitor's maxima.
 !!
-!! Run: `fpm run --example double_pendulum_start`. Output:
+!! Run from the project directory: `fpm run --example double_pendulum_start` (the CSV goes
+!! to build/). Output:
 !!
 !!     measured positions miss the rods by        1.121E-03
 !!     projection: position shift 4.058E-04, momentum shift 6.333E-03
 !!     start residuals: |phi| 1.926E-34, |Phi H_p| 2.407E-35
-!!     wrote 101 rows to double_pendulum.csv (t = 0, 0.1, ..., 10)
+!!     wrote 101 rows to build/double_pendulum.csv (t = 0, 0.1, ..., 10)
 !!     max |(H - H0)/H0|   4.621E-09
 !!     max |phi|           4.333E-34
 !!     max |Phi H_p|       1.649E-33
@@ -28,7 +29,7 @@ program example_double_pendulum_start
     type(projection_report_t) :: report
     type(holosym_status_t) :: status
     real(wp) :: q(4), p(4), velocity(4), phi(2), position, hidden
-    character(len=*), parameter :: file = "double_pendulum.csv"
+    character(len=*), parameter :: file = "build/double_pendulum.csv"
 
     sys = pendulum_chain(2, masses=[1.0_wp, 2.0_wp], lengths=[1.0_wp, 0.7_wp])
     ! Bob positions (x1, y1, x2, y2) [m] and velocities [m/s] as measured.
