@@ -1,5 +1,6 @@
 !> Work-precision benchmark: holosym (M = 1..8, N = M - 1, G = M and M + 1, fast options)
-!! against RATTLE composed to orders 2-10 inside holosym, on the spherical pendulum
+!! against RATTLE composed to orders 2-10 inside holosym (GNI_COMP's compositions), on
+!! the spherical pendulum
 !! (T = 10), the spring-linkage (T = 10) and the planar pendulum (T = 100), over a
 !! geometric sweep of h; plus a per-step comparison of the speed options with the plain
 !! path. CPU seconds are process CPU time (`cpu_time`), one core, median of 3 for runs
@@ -18,32 +19,26 @@ module holosym_benchmark
 
     public :: bench_row_t, bench_settings_t, reference_state, holosym_run, rattle_run, &
               sweep_holosym, sweep_rattle, configure_variant, variant_name, bench_span, &
-              competitor_seconds, competitor_targets, bench_targets, variant_count
+              bench_targets, variant_count, rattle_families, rattle_orders, target_in_precision
 
     !> Runs shorter than this (seconds) are repeated three times and the median is kept.
     real(real64), parameter :: short_run = 0.2_real64
     !> Option sets of the per-step comparison: 0 plain ... variant_count all fast.
     integer, parameter :: variant_count = 9
-    !> Error targets of the summary.
-    real(wp), parameter :: bench_targets(6) = [1.0e-6_wp, 1.0e-10_wp, 1.0e-14_wp, &
-        1.0e-18_wp, 1.0e-22_wp, 1.0e-26_wp]
-    !> The competitor table (GNI_COMP, cheapest configuration; CPU seconds) for targets
-    !! 1e-10 .. 1e-26: (target, system, precision 1 = double, 2 = real128); < 0 none.
-    real(real64), parameter :: competitor_targets(5) = [1.0e-10_real64, 1.0e-14_real64, &
-        1.0e-18_real64, 1.0e-22_real64, 1.0e-26_real64]
-    real(real64), parameter :: competitor_seconds(5, 3, 2) = reshape([ &
-        ! sphere double, then sphere real128 ...
-        3.7e-5_real64, 1.3e-4_real64, -1.0_real64, -1.0_real64, -1.0_real64, &
-        5.9e-4_real64, 1.8e-3_real64, -1.0_real64, -1.0_real64, -1.0_real64, &
-        4.0e-4_real64, 1.8e-3_real64, -1.0_real64, -1.0_real64, -1.0_real64, &
-        1.6e-3_real64, 4.9e-3_real64, 0.010_real64, 0.040_real64, 0.083_real64, &
-        0.024_real64, 0.075_real64, 0.16_real64, 0.31_real64, 1.5_real64, &
-        0.013_real64, 0.050_real64, 0.10_real64, 0.20_real64, 0.79_real64], [5, 3, 2])
+    !> Error targets: 1e-6 .. 1e-14 in real64, 1e-10 .. 1e-30 in real128.
+    real(wp), parameter :: bench_targets(7) = [1.0e-6_wp, 1.0e-10_wp, 1.0e-14_wp, &
+        1.0e-18_wp, 1.0e-22_wp, 1.0e-26_wp, 1.0e-30_wp]
+    !> RATTLE compositions of the sweep: plain RATTLE, the fractal compositions to order 6
+    !! and GNI_COMP's optimised compositions (order 2 of 'triple-jump' is RATTLE itself).
+    character(len=*), parameter :: rattle_families(10) = [character(len=18) :: &
+        "triple-jump", "triple-jump", "suzuki", "triple-jump", "yoshida", "kahan-li", &
+        "suzuki-umeno", "kahan-li", "hlw", "sofroniou-spaletta"]
+    integer, parameter :: rattle_orders(10) = [2, 4, 4, 6, 6, 6, 8, 8, 10, 10]
 
     !> One measured run.
     type :: bench_row_t
         character(len=16) :: system = ""    !! pendulum, linkage or planar
-        character(len=24) :: method = ""    !! holosym, holosym-plain, rattle-triple-jump, ...
+        character(len=32) :: method = ""    !! holosym, holosym-plain, rattle-<family>, heyoka
         character(len=8) :: precision = ""  !! real128 or real64
         integer :: order_m = 0, order_n = 0, gauss_points = 0 !! (M, N, G); 0 for RATTLE
         integer :: order = 0                !! convergence order
@@ -58,6 +53,10 @@ module holosym_benchmark
         integer :: code = 0                 !! status code of the run
         !> Per-step comparison: max |state - plain path's state| at T (else 0).
         real(wp) :: difference = 0
+        !> heyoka: the tolerance of the run (else 0).
+        real(wp) :: tolerance = 0
+        !> heyoka: CPU seconds of building (compiling) the integrator, not in `seconds`.
+        real(real64) :: compile_seconds = 0
     end type bench_row_t
 
     !> Settings of a sweep.
@@ -72,6 +71,8 @@ module holosym_benchmark
         integer :: max_levels = 40
         !> Progress lines to this unit (< 0: none).
         integer :: progress_unit = -1
+        !> holosym's Newton tolerance (`newton%tolerance`); 0: the default (8 epsilon).
+        real(wp) :: newton_tolerance = 0
     end type bench_settings_t
 
     interface
@@ -82,6 +83,17 @@ module holosym_benchmark
     end interface
 
 contains
+
+    !> Whether a target of `bench_targets` belongs to a precision's table.
+    pure logical function target_in_precision(target, precision)
+        real(wp), intent(in) :: target          !! error target
+        character(len=*), intent(in) :: precision !! real128 or real64
+        if (precision == "real64") then
+            target_in_precision = target >= 1.0e-14_wp * (1 - sqrt(epsilon(1.0_wp)))
+        else
+            target_in_precision = target <= 1.0e-10_wp * (1 + sqrt(epsilon(1.0_wp)))
+        end if
+    end function target_in_precision
 
     !> T of the benchmark for a system.
     pure function bench_span(system) result(span)
@@ -211,7 +223,7 @@ contains
     !> One holosym run over [0, T] with step h and option set `variant`: a diagnostic pass
     !! (energy, constraints; optional, untimed) and timed passes of `integrate`.
     subroutine holosym_run(sys, q0, p0, span, order_m, order_n, gauss_points, h, variant, &
-                           q_ref, p_ref, diagnose, row, status, q_end, p_end)
+                           q_ref, p_ref, diagnose, row, status, q_end, p_end, newton_tolerance)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         real(wp), intent(in) :: q0(:), p0(:)   !! initial state
         real(wp), intent(in) :: span           !! T
@@ -223,6 +235,8 @@ contains
         type(bench_row_t), intent(out) :: row  !! the measurements
         type(holosym_status_t), intent(out) :: status !! outcome
         real(wp), intent(out), optional :: q_end(:), p_end(:) !! state at T
+        !> Newton tolerance (> 0), recorded as the row's `tolerance`; else the default.
+        real(wp), intent(in), optional :: newton_tolerance
         type(constrained_integrator) :: integ
         real(wp) :: q(size(q0)), p(size(p0)), energy0, step_size
         real(real64) :: times(3), start, finish
@@ -238,6 +252,7 @@ contains
         row%steps = steps
         row%method = "holosym"
         if (variant == 0) row%method = "holosym-plain"
+        if (present(newton_tolerance)) row%tolerance = max(newton_tolerance, 0.0_wp)
         row%precision = merge("real64 ", "real128", wp_is_double)
         if (diagnose) then
             q = q0
@@ -248,6 +263,15 @@ contains
                 return
             end if
             call configure_variant(integ, variant)
+            if (present(newton_tolerance)) then
+                if (newton_tolerance > 0) then
+                    ! States then meet the constraints to about this tolerance: accept them
+                    ! as start states of the next call (the diagnostic pass steps singly).
+                    integ%newton%tolerance = newton_tolerance
+                    integ%manifold_tolerance = max(integ%manifold_tolerance, &
+                                                   1.0e4_wp * newton_tolerance)
+                end if
+            end if
             energy0 = sys%hamiltonian(q, p)
             do k = 1, steps
                 call integ%integrate(sys, q, p, step_size, 1, status=status)
@@ -267,6 +291,15 @@ contains
             call integ%init(sys, order_m, order_n, gauss_points, status)
             if (.not. status%ok()) exit
             call configure_variant(integ, variant)
+            if (present(newton_tolerance)) then
+                if (newton_tolerance > 0) then
+                    ! States then meet the constraints to about this tolerance: accept them
+                    ! as start states of the next call (the diagnostic pass steps singly).
+                    integ%newton%tolerance = newton_tolerance
+                    integ%manifold_tolerance = max(integ%manifold_tolerance, &
+                                                   1.0e4_wp * newton_tolerance)
+                end if
+            end if
             call cpu_time(start)
             call integ%integrate(sys, q, p, step_size, steps, status=status)
             call cpu_time(finish)
@@ -408,7 +441,8 @@ contains
             last_steps = steps
             if (is_holosym) then
                 call holosym_run(sys, q0, p0, span, order_m, order_n, gauss_points, &
-                                 span / steps, variant_count, q_ref, p_ref, .true., row, status)
+                                 span / steps, variant_count, q_ref, p_ref, .true., row, status, &
+                                 newton_tolerance=settings%newton_tolerance)
             else
                 call rattle_run(sys, q0, p0, span, order, family, span / steps, q_ref, p_ref, &
                                 row, status)

@@ -1,30 +1,36 @@
-!> The `bench` command: work-precision benchmark of holosym against RATTLE compositions,
-!! and the per-step cost of the speed options against the plain path.
+!> The `bench` command: work-precision benchmark of holosym against RATTLE compositions
+!! (inside holosym) and heyoka (measured in the same run by tools/heyoka_bench.py when
+!! --heyoka names a Python that has it), the per-step cost of the speed options against
+!! the plain path, the chain scaling study (--scaling) and the long runs (--long).
 !!
-!! Writes DIR/bench.csv (bench64.csv in the real64 build), DIR/steps.csv (per-step
-!! comparison), DIR/reference.csv (real128 build) and DIR/summary.md; the summary also
-!! goes to the output unit. `--summarize DIR` only rebuilds DIR/summary.md from the CSV
-!! files there (after a real64 run has added bench64.csv). tools/plot_bench.py draws the
-!! work-precision plot from the CSV files.
+!! Writes DIR/bench.csv (bench64.csv in the real64 build), DIR/heyoka.csv (heyoka64.csv),
+!! DIR/steps.csv (per-step comparison), DIR/reference.csv (real128 build: initial and
+!! reference states) and DIR/summary.md; the summary also goes to the output unit.
+!! `--summarize DIR` only rebuilds DIR/summary.md and DIR/performance.md from the CSV
+!! files there. tools/plot_bench.py draws the plots from the CSV files.
 module holosym_cli_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
     use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_benchmark, only: bench_row_t, bench_settings_t, reference_state, holosym_run, &
-        sweep_holosym, sweep_rattle, variant_name, bench_span, competitor_seconds, &
-        competitor_targets, bench_targets, variant_count
+        sweep_holosym, sweep_rattle, variant_name, bench_span, bench_targets, variant_count, &
+        rattle_families, rattle_orders, target_in_precision
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
     use holosym_systems, only: make_system, system_choices
+    use holosym_bench_scaling, only: scaling_point, scaling_links, scaling_header, &
+        general_links_limit
+    use holosym_bench_long, only: run_long
+    use holosym_bench_report, only: scaling_section, long_section
     implicit none
     private
 
     public :: bench_options_t, parse_bench_options, bench_command, bench_help, &
               read_bench_csv, write_bench_csv, write_summary
 
-    !> Systems of the benchmark, in the order of the competitor table.
+    !> Systems of the benchmark.
     character(len=*), parameter :: bench_systems(3) = [character(len=8) :: &
         "pendulum", "linkage", "planar"]
     !> Step of the reference pair (h and h/2) per system.
@@ -40,7 +46,10 @@ module holosym_cli_bench
     character(len=*), parameter :: csv_header = "system,method,precision,M,N,G,order,h," // &
         "steps,error,energy_error,constraint_residual,seconds,seconds_per_step," // &
         "newton_iterations,residual_evaluations,gradient_evaluations,hessian_evaluations," // &
-        "lu_factorizations,status,difference_from_plain"
+        "lu_factorizations,status,difference_from_plain,tolerance,compile_seconds"
+    !> The competitor's script (run with the Python given by --heyoka), from the
+    !! directory `make bench` runs in.
+    character(len=*), parameter :: heyoka_script = "tools/heyoka_bench.py"
 
     !> Options of `holosym bench`.
     type :: bench_options_t
@@ -48,11 +57,16 @@ module holosym_cli_bench
         character(len=:), allocatable :: reference   !! reference file to read ("" = compute)
         character(len=:), allocatable :: summarize   !! only summarize this directory
         character(len=:), allocatable :: systems     !! comma list (default all three)
+        character(len=:), allocatable :: heyoka      !! Python with heyoka ("" = no heyoka)
         integer :: max_m = 8                         !! largest M
         integer :: max_rattle_order = 10             !! largest composition order
         real(real64) :: budget = 1.5_real64          !! CPU seconds per run before stopping
         logical :: quick = .false.                   !! M <= 4, order <= 6, budget 0.2 s
         logical :: per_step = .true.                 !! run the per-step comparison
+        logical :: scaling = .false.                 !! the chain scaling study instead
+        logical :: long = .false.                    !! the long runs instead
+        integer :: scaling_point = 0                 !! one chain of K links (internal)
+        logical :: general = .false.                 !! with --scaling-point: general path
         logical :: help = .false.                    !! --help given
     end type bench_options_t
 
@@ -72,10 +86,10 @@ contains
             "Usage: holosym bench [options]", &
             "", &
             "Work-precision benchmark: holosym (M = 1..8, N = M-1, G = M and M+1, fast options)", &
-            "against RATTLE composed to orders 2-10 (triple jump, Suzuki) inside holosym, on", &
-            "the spherical pendulum (T = 10), spring-linkage (T = 10), planar pendulum", &
-            "(T = 100);", &
-            "and the per-step cost of each speed option against the plain path.", &
+            "against RATTLE composed to orders 2-10 inside holosym (GNI_COMP's compositions)", &
+            "and heyoka (with --heyoka), on the spherical pendulum (T = 10), spring-linkage", &
+            "(T = 10), planar pendulum (T = 100); the per-step cost of each speed option", &
+            "against the plain path.", &
             "", &
             "Options:", &
             "  --out DIR        output directory (default build/bench)", &
@@ -83,15 +97,27 @@ contains
             "  --Mmax M         largest M (default 8)", &
             "  --order P        largest RATTLE composition order (default 10)", &
             "  --budget S       stop refining h once a run takes S CPU seconds (default 1.5)", &
-            "  --quick          M <= 4, orders <= 6, budget 0.2 s (about a minute)", &
+            "  --quick          M <= 4, orders <= 6, budget 0.2 s, short heyoka sweep", &
+            "  --heyoka PYTHON  also run tools/heyoka_bench.py with this Python (which has", &
+            "                   the heyoka package), in this run, on the same reference", &
+            "  --scaling        instead: chain of K pendula, K = 1..256, (4,3,5), h = 0.01:", &
+            "                   cost per step, peak memory, reduced and general paths", &
+            "                   (DIR/scaling.csv, scaling64.csv in the real64 build)", &
+            "  --scaling-point K  one point of --scaling: its CSV line (--general: the", &
+            "                   general path)", &
+            "  --long           instead: long runs (planar T = 1e4, 1e5, spherical 1e4) to", &
+            "                   errors 1e-20 and 1e-24 (DIR/long.csv; about an hour;", &
+            "                   --quick: T = 20 and 10)", &
             "  --no-per-step    skip the per-step comparison", &
             "  --reference FILE read the reference states (the real64 build uses the", &
             "                   real128 one)", &
-            "  --summarize DIR  only rebuild DIR/summary.md from DIR/bench.csv and bench64.csv", &
+            "  --summarize DIR  only rebuild DIR/summary.md and DIR/performance.md from the", &
+            "                   CSV files in DIR", &
             "  --help           this text", &
             "", &
-            "Files: DIR/bench.csv (bench64.csv in the real64 build), DIR/steps.csv,", &
-            "DIR/reference.csv, DIR/summary.md. Plot: python3 tools/plot_bench.py DIR."])
+            "Files: DIR/bench.csv (bench64.csv in the real64 build), DIR/heyoka.csv", &
+            "(heyoka64.csv), DIR/steps.csv, DIR/reference.csv, DIR/summary.md,", &
+            "DIR/performance.md. Plots: python3 tools/plot_bench.py DIR."])
     end function bench_help
 
     !> Parse the options of `bench`. Failure: HOLOSYM_INVALID_ARGUMENT naming the option.
@@ -107,6 +133,7 @@ contains
         options%reference = ""
         options%summarize = ""
         options%systems = "pendulum,linkage,planar"
+        options%heyoka = ""
         status%code = HOLOSYM_SUCCESS
         status%message = ""
         i = 1
@@ -123,8 +150,14 @@ contains
                 options%budget = 0.2_real64
             case ("--no-per-step")
                 options%per_step = .false.
+            case ("--scaling")
+                options%scaling = .true.
+            case ("--long")
+                options%long = .true.
+            case ("--general")
+                options%general = .true.
             case ("--out", "--systems", "--Mmax", "--order", "--budget", "--reference", &
-                  "--summarize")
+                  "--summarize", "--heyoka", "--scaling-point")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
                 select case (name)
@@ -134,6 +167,12 @@ contains
                     options%reference = value
                 case ("--summarize")
                     options%summarize = value
+                case ("--heyoka")
+                    options%heyoka = value
+                case ("--scaling-point")
+                    call parse_integer(name, value, options%scaling_point, status)
+                    if (status%ok() .and. options%scaling_point < 1) call fail(status, &
+                        "option --scaling-point must be >= 1; got '" // value // "'")
                 case ("--systems")
                     options%systems = value
                     call check_systems(value, status)
@@ -201,7 +240,8 @@ contains
             int64_str(row%newton_iterations) // "," // int64_str(row%residuals) // "," // &
             int64_str(row%gradients) // "," // int64_str(row%hessians) // "," // &
             int64_str(row%factorizations) // "," // csv_integer(row%code) // "," // &
-            csv_real(row%difference)
+            csv_real(row%difference) // "," // csv_real(row%tolerance) // "," // &
+            csv_real(real(row%compile_seconds, wp))
     end function csv_line
 
     pure function int64_str(value) result(text)
@@ -237,7 +277,7 @@ contains
 
     !> Read rows written by `write_bench_csv` and append them to `rows`. A missing file
     !! gives no rows and no error when `optional_file`. Failure (HOLOSYM_INVALID_ARGUMENT:
-    !! an unreadable file, no bench header, a line without 21 fields, a field that is not a
+    !! an unreadable file, no bench header, a line without 23 fields, a field that is not a
     !! number, a per-step row whose method is not variant-0 .. variant-9) names the file,
     !! the line and the field; `rows` is then unchanged.
     subroutine read_bench_csv(path, rows, status, optional_file)
@@ -245,13 +285,14 @@ contains
         type(bench_row_t), allocatable, intent(inout) :: rows(:) !! rows are appended
         type(holosym_status_t), intent(inout) :: status !! I/O or format failure
         logical, intent(in), optional :: optional_file !! a missing file is not an error
-        integer, parameter :: field_count = 21
+        integer, parameter :: field_count = 23
         character(len=*), parameter :: field_names(field_count) = [character(len=21) :: &
             "system", "method", "precision", "M", "N", "G", "order", "h", "steps", "error", &
             "energy_error", "constraint_residual", "seconds", "seconds_per_step", &
             "newton_iterations", "residual_evaluations", "gradient_evaluations", &
-            "hessian_evaluations", "lu_factorizations", "status", "difference_from_plain"]
-        character(len=1024) :: line
+            "hessian_evaluations", "lu_factorizations", "status", "difference_from_plain", &
+            "tolerance", "compile_seconds"]
+        character(len=2048) :: line
         character(len=256) :: message
         character(len=64) :: fields(field_count)
         type(bench_row_t), allocatable :: read_rows(:)
@@ -283,7 +324,7 @@ contains
             read (unit, '(a)', iostat=ios) line
             if (ios /= 0) exit
             line_number = line_number + 1
-            ! Split at the commas; k ends as the number of fields found (at most 21).
+            ! Split at the commas; k ends as the number of fields found (at most 23).
             first = 1
             do k = 1, field_count
                 comma = index(line(first:), ",")
@@ -336,6 +377,11 @@ contains
             if (.not. field_ok(20)) return
             read (fields(21), *, iostat=ios) row%difference
             if (.not. field_ok(21)) return
+            read (fields(22), *, iostat=ios) row%tolerance
+            if (.not. field_ok(22)) return
+            read (fields(23), *, iostat=ios) value
+            if (.not. field_ok(23)) return
+            row%compile_seconds = real(value, real64)
             if (index(row%method, variant_prefix) == 1 .and. step_variant(row%method) < 0) then
                 call bad_line("method '" // trim(row%method) // "' is not " // variant_prefix &
                     // "0 .. " // variant_prefix // int_str(variant_count))
@@ -408,7 +454,7 @@ contains
                 if (index_value < 1 .or. index_value > size(q_ref)) cycle
                 if (kind == "q") q_ref(index_value) = value
                 if (kind == "p") p_ref(index_value) = value
-                found = found + 1
+                if (kind == "q" .or. kind == "p") found = found + 1
             end do
             close (unit)
             if (found /= 2 * size(q_ref)) call fail(status, "reference file " // &
@@ -430,6 +476,12 @@ contains
                 trim(message))
             return
         end if
+        do k = 1, size(q0)
+            write (unit, '(a)') system // ",q0," // int_str(k) // "," // csv_real(q0(k))
+        end do
+        do k = 1, size(p0)
+            write (unit, '(a)') system // ",p0," // int_str(k) // "," // csv_real(p0(k))
+        end do
         do k = 1, size(q_ref)
             write (unit, '(a)') system // ",q," // int_str(k) // "," // csv_real(q_ref(k))
         end do
@@ -452,14 +504,19 @@ contains
         class(constrained_hamiltonian), allocatable :: sys
         real(wp), allocatable :: q0(:), p0(:), q_ref(:), p_ref(:), q_end(:), p_end(:)
         real(wp), allocatable :: q_plain(:), p_plain(:)
-        type(bench_settings_t) :: settings
+        type(bench_settings_t) :: settings, loose
         type(bench_row_t) :: row
         type(holosym_status_t) :: run_status
-        integer :: s, order_m, gauss_points, order, family, variant, config, ios
+        !> Newton tolerances of the extra real128 sweeps of holosym (M = 2..6, G = M + 1).
+        real(wp), parameter :: loose_tolerances(2) = [1.0e-14_wp, 1.0e-20_wp]
+        integer :: tolerance
+        integer :: s, order_m, gauss_points, family, variant, config, ios, exit_code
         character(len=256) :: message
-        character(len=11), parameter :: families(2) = [character(len=11) :: "triple-jump", &
-                                                        "suzuki"]
+        character(len=:), allocatable :: heyoka_csv, command
         allocate (rows(0), steps_rows(0))
+        heyoka_csv = options%out_dir // "/" // trim(merge("heyoka64.csv", "heyoka.csv  ", &
+                                                          wp_is_double))
+        if (len(options%heyoka) > 0) call execute_command_line("rm -f '" // heyoka_csv // "'")
         settings%budget = options%budget
         settings%progress_unit = err_unit
         if (len(options%reference) == 0) then
@@ -470,7 +527,8 @@ contains
                     // trim(message))
                 return
             end if
-            write (s, '(a)') "# reference states q(T), p(T): system,q|p,index,value"
+            write (s, '(a)') "# initial states q0, p0 and reference states q(T), p(T): " // &
+                "system,q0|p0|q|p,index,value"
             close (s)
         end if
         do s = 1, size(bench_systems)
@@ -511,16 +569,47 @@ contains
                         order_m - 1, gauss_points, sweep_h0, q_ref, p_ref, settings, rows)
                 end do
             end do
-            do family = 1, 2
-                do order = 2, options%max_rattle_order, 2
-                    if (order == 2 .and. family == 2) cycle  ! order 2 is plain RATTLE
-                    call sweep_rattle(sys, trim(bench_systems(s)), q0, p0, order, &
-                        trim(families(family)), sweep_h0, q_ref, p_ref, settings, rows)
+            ! Looser Newton tolerances buy speed where the target is far above round-off.
+            do tolerance = 1, size(loose_tolerances)
+                if (wp_is_double) exit
+                loose = settings
+                loose%newton_tolerance = loose_tolerances(tolerance)
+                do order_m = 2, min(6, options%max_m)
+                    call sweep_holosym(sys, trim(bench_systems(s)), q0, p0, order_m, &
+                        order_m - 1, order_m + 1, sweep_h0, q_ref, p_ref, loose, rows)
                 end do
             end do
+            do family = 1, size(rattle_families)
+                if (rattle_orders(family) > options%max_rattle_order) cycle
+                call sweep_rattle(sys, trim(bench_systems(s)), q0, p0, rattle_orders(family), &
+                    trim(rattle_families(family)), sweep_h0, q_ref, p_ref, settings, rows)
+            end do
+            if (len(options%heyoka) > 0) then
+                command = "'" // options%heyoka // "' " // heyoka_script // " sweep --system " &
+                    // trim(bench_systems(s)) // " --precision " // &
+                    trim(merge("real64 ", "real128", wp_is_double)) // " --reference '" // &
+                    reference_path(options) // "' --out '" // heyoka_csv // "' --budget " // &
+                    trim(real_str(real(options%budget, wp)))
+                if (options%quick) command = command // " --quick"
+                write (err_unit, '(a)') "bench: " // command
+                call execute_command_line(command, exitstat=exit_code)
+                if (exit_code /= 0) then
+                    call fail(status, "the heyoka sweep failed (exit status " // &
+                        int_str(exit_code) // "): " // command)
+                    return
+                end if
+            end if
             deallocate (q_ref, p_ref, q_end, p_end, q_plain, p_plain)
         end do
     end subroutine run_bench
+
+    !> The reference file of a run: --reference, else DIR/reference.csv.
+    function reference_path(options) result(path)
+        type(bench_options_t), intent(in) :: options
+        character(len=:), allocatable :: path
+        path = options%reference
+        if (len(path) == 0) path = options%out_dir // "/reference.csv"
+    end function reference_path
 
     !> Cheapest successful row of a method family meeting an error target.
     pure integer function cheapest(rows, system, prefix, precision, target)
@@ -553,7 +642,11 @@ contains
         real(real64), intent(in) :: ratio
         character(len=:), allocatable :: text
         character(len=16) :: buffer
-        write (buffer, '(f10.1)') ratio
+        if (ratio < 10) then
+            write (buffer, '(f10.2)') ratio
+        else
+            write (buffer, '(f10.1)') ratio
+        end if
         text = trim(adjustl(buffer))
     end function ratio_text
 
@@ -563,53 +656,85 @@ contains
         character(len=:), allocatable :: text
         character(len=16) :: buffer
         write (buffer, '(g0.4)') real(row%h, real64)
+        ! The leading zero of 0.25 is optional in the standard: written alike everywhere.
+        if (buffer(1:1) == '.') buffer = '0' // buffer
         if (index(row%method, "holosym") == 1) then
             text = "(" // int_str(row%order_m) // "," // int_str(row%order_n) // "," // &
                 int_str(row%gauss_points) // ") h=" // trim(buffer)
+            if (row%tolerance > 0) then
+                write (buffer, '(es8.1)') real(row%tolerance, real64)
+                text = text // " Newton tol " // trim(adjustl(buffer))
+            end if
         else
             text = trim(row%method(8:)) // " p=" // int_str(row%order) // " h=" // trim(buffer)
         end if
     end function config_text
 
-    !> The Markdown summary: per target and system the cheapest configuration of holosym
-    !! and of RATTLE in holosym, with the competitor table's time and the ratios.
-    subroutine write_summary(rows, steps_rows, unit)
-        type(bench_row_t), intent(in) :: rows(:)       !! sweep rows (any precision)
+    !> Description of a heyoka row: its tolerance and Taylor order.
+    function heyoka_text(row) result(text)
+        type(bench_row_t), intent(in) :: row
+        character(len=:), allocatable :: text
+        character(len=16) :: buffer
+        write (buffer, '(es8.1)') real(row%tolerance, real64)
+        text = "tol " // trim(adjustl(buffer)) // ", order " // int_str(row%order)
+    end function heyoka_text
+
+    !> A small number for a table: two digits.
+    function short_real(value) result(text)
+        real(wp), intent(in) :: value
+        character(len=:), allocatable :: text
+        character(len=16) :: buffer
+        write (buffer, '(es9.1)') real(value, real64)
+        text = trim(adjustl(buffer))
+    end function short_real
+
+    !> The Markdown summary: per precision, target and system the cheapest configuration
+    !! of holosym, of RATTLE composed inside holosym and of heyoka (index-1 form) reaching
+    !! the target, with the ratios of their CPU times and heyoka's whole-run residuals.
+    subroutine write_summary(rows, steps_rows, unit, nested)
+        type(bench_row_t), intent(in) :: rows(:)       !! sweep rows (any precision, any method)
         type(bench_row_t), intent(in) :: steps_rows(:) !! per-step comparison rows
         integer, intent(in) :: unit                    !! output unit
-        integer :: t, s, best, rival, precision, c, variant, plain
-        character(len=:), allocatable :: line, prec
-        real(real64) :: table, per_step, plain_step
+        logical, intent(in), optional :: nested        !! headings one level down
+        integer :: t, s, best, rival, taylor, precision, c, variant, plain
+        character(len=:), allocatable :: line, prec, level
+        real(real64) :: per_step, plain_step
         real(wp) :: difference
-        write (unit, '(a)') "# holosym work-precision benchmark"
+        level = "#"
+        if (present(nested)) then
+            if (nested) level = "##"
+        end if
+        write (unit, '(a)') level // " holosym work-precision benchmark"
         write (unit, '(a)') ""
-        write (unit, '(a)') "Error = max(|q - q_ref|, |p - p_ref|) at T; CPU seconds on one " // &
-            "core, median of 3 for runs under 0.2 s. holosym: all speed options (simplified " // &
-            "Newton, mixed-precision LU, real64 pre-solve in the real128 build, exact " // &
-            "Hessians, extrapolated guess). RATTLE: " // &
-            "composed inside holosym (triple jump or Suzuki), same problem interface. " // &
-            "'table' is the competitor's (GNI_COMP) time from the issue; 'x' = table / holosym."
+        write (unit, '(a)') "Error = max(|q - q_ref|, |p - p_ref|) at T against one reference " // &
+            "(holosym M = 8 at h = 1/32; reference.csv), the same for every method. CPU " // &
+            "seconds on one core, median of 3 for runs under 0.2 s; the cheapest run of " // &
+            "each method reaching the target. holosym: default options (real128: also " // &
+            "Newton tolerances 1e-14 and 1e-20 for M = 2..6). RATTLE: composed " // &
+            "inside holosym (GNI_COMP's compositions, orders 2-10). heyoka: Taylor method " // &
+            "on the index-1 form (tools/heyoka_bench.py), compile time apart; its max " // &
+            "residual (max |phi|, |Phi H_p| over the run) and energy error are whole-run. " // &
+            "'x' = the method's time / holosym's (above 1: holosym is faster)."
         do precision = 2, 1, -1
             prec = merge("real128", "real64 ", precision == 2)
             if (.not. any(rows%precision == prec)) cycle
             write (unit, '(a)') ""
-            write (unit, '(a)') "## " // trim(prec)
+            write (unit, '(a)') level // "# " // trim(prec)
             write (unit, '(a)') ""
             write (unit, '(a)') "| target | system | holosym config | holosym s | " // &
-                "RATTLE in holosym | RATTLE s | table s | x table | x RATTLE |"
-            write (unit, '(a)') "|---|---|---|---|---|---|---|---|---|"
+                "RATTLE config | RATTLE s | x RATTLE | heyoka config | heyoka s | x heyoka | " &
+                // "heyoka compile s | heyoka max residual | heyoka energy error |"
+            write (unit, '(a)') "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
             do t = 1, size(bench_targets)
+                if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
                 do s = 1, size(bench_systems)
                     if (.not. any(rows%system == bench_systems(s))) cycle
                     best = cheapest(rows, trim(bench_systems(s)), "holosym", trim(prec), &
                                     bench_targets(t))
                     rival = cheapest(rows, trim(bench_systems(s)), "rattle", trim(prec), &
                                      bench_targets(t))
-                    table = -1
-                    do c = 1, size(competitor_targets)
-                        if (abs(real(bench_targets(t), real64) / competitor_targets(c) - 1) &
-                            < 1.0e-6_real64) table = competitor_seconds(c, s, precision)
-                    end do
+                    taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
+                                      bench_targets(t))
                     line = "| " // trim(real_str(bench_targets(t))) // " | " // &
                         trim(bench_systems(s)) // " | "
                     if (best > 0) then
@@ -620,25 +745,19 @@ contains
                     end if
                     if (rival > 0) then
                         line = line // config_text(rows(rival)) // " | " // &
-                            seconds_text(rows(rival)%seconds) // " | "
+                            seconds_text(rows(rival)%seconds) // " | " // &
+                            ratio(rival) // " | "
                     else
-                        line = line // "— | — | "
+                        line = line // "— | — | — | "
                     end if
-                    if (table > 0) then
-                        line = line // seconds_text(table) // " | "
+                    if (taylor > 0) then
+                        line = line // heyoka_text(rows(taylor)) // " | " // &
+                            seconds_text(rows(taylor)%seconds) // " | " // ratio(taylor) // &
+                            " | " // seconds_text(rows(taylor)%compile_seconds) // " | " // &
+                            short_real(rows(taylor)%constraint_residual) // " | " // &
+                            short_real(rows(taylor)%energy_error) // " |"
                     else
-                        line = line // "— | "
-                    end if
-                    if (table > 0 .and. best > 0) then
-                        line = line // ratio_text(table / rows(best)%seconds) // " | "
-                    else
-                        line = line // "— | "
-                    end if
-                    if (rival > 0 .and. best > 0) then
-                        line = line // ratio_text(rows(rival)%seconds / rows(best)%seconds) &
-                            // " |"
-                    else
-                        line = line // "— |"
+                        line = line // "— | — | — | — | — | — |"
                     end if
                     write (unit, '(a)') line
                 end do
@@ -646,7 +765,7 @@ contains
         end do
         if (size(steps_rows) == 0) return
         write (unit, '(a)') ""
-        write (unit, '(a)') "## Per-step cost of the speed options (spherical pendulum, " // &
+        write (unit, '(a)') level // "# Per-step cost of the speed options (spherical pendulum, " // &
             "h = 1/8, T = 10)"
         write (unit, '(a)') ""
         write (unit, '(a)') "| (M,N,G) | option set | s / step | x plain | Newton it. / step" // &
@@ -672,6 +791,17 @@ contains
                 // " | " // ratio_text(real(steps_rows(c)%gradients, real64) / &
                 steps_rows(c)%steps) // " | " // trim(real_str(difference)) // " |"
         end do
+    contains
+        !> rows(other)%seconds / rows(best)%seconds, or "—" without a holosym row.
+        function ratio(other) result(text)
+            integer, intent(in) :: other
+            character(len=:), allocatable :: text
+            if (best > 0) then
+                text = ratio_text(rows(other)%seconds / rows(best)%seconds)
+            else
+                text = "—"
+            end if
+        end function ratio
     end subroutine write_summary
 
     !> `holosym bench [options]`. Exit 0 success, 1 failure, 2 usage.
@@ -690,6 +820,21 @@ contains
         call parse_bench_options(args, options, status)
         if (.not. parsed_command_proceeds("bench", status, options%help, bench_help(), &
                                           out_unit, err_unit, exit_code)) return
+        if (options%scaling_point > 0) then
+            call scaling_point(options%scaling_point, options%general, options%quick, &
+                               out_unit, status)
+            call finish(status)
+            return
+        end if
+        if (options%scaling .or. options%long) then
+            call execute_command_line("mkdir -p '" // options%out_dir // "'")
+            if (options%scaling) call run_scaling(options, err_unit, status)
+            if (options%long .and. status%ok()) call run_long(options%out_dir, &
+                options%heyoka, options%quick, err_unit, status)
+            if (status%ok()) call write_reports(options%out_dir, status)
+            call finish(status)
+            return
+        end if
         if (len(options%summarize) > 0) then
             dir = options%summarize
         else
@@ -706,6 +851,8 @@ contains
         allocate (steps_rows(0))
         if (status%ok()) call read_bench_csv(dir // "/bench.csv", all_rows, status, .true.)
         if (status%ok()) call read_bench_csv(dir // "/bench64.csv", all_rows, status, .true.)
+        if (status%ok()) call read_bench_csv(dir // "/heyoka.csv", all_rows, status, .true.)
+        if (status%ok()) call read_bench_csv(dir // "/heyoka64.csv", all_rows, status, .true.)
         if (status%ok()) call read_bench_csv(dir // "/steps.csv", steps_rows, status, .true.)
         if (status%ok()) call read_bench_csv(dir // "/steps64.csv", steps_rows, status, .true.)
         if (status%ok() .and. size(all_rows) + size(steps_rows) == 0) call fail(status, &
@@ -726,8 +873,185 @@ contains
         end if
         call write_summary(all_rows, steps_rows, unit)
         close (unit)
-        exit_code = EXIT_OK
+        call write_reports(dir, status)
+        call finish(status)
+    contains
+        !> Exit code and message of the command.
+        subroutine finish(outcome)
+            type(holosym_status_t), intent(in) :: outcome
+            if (outcome%ok()) then
+                exit_code = EXIT_OK
+            else
+                write (err_unit, '(a)') "holosym bench: " // outcome%message
+                exit_code = EXIT_FAILURE
+            end if
+        end subroutine finish
     end subroutine bench_command
+
+    !> DIR/performance.md from every CSV file in DIR.
+    subroutine write_reports(dir, status)
+        character(len=*), intent(in) :: dir
+        type(holosym_status_t), intent(inout) :: status
+        type(bench_row_t), allocatable :: rows(:), steps_rows(:)
+        character(len=256) :: message
+        integer :: unit, ios, k
+        character(len=12), parameter :: files(4) = [character(len=12) :: "bench.csv", &
+            "bench64.csv", "heyoka.csv", "heyoka64.csv"]
+        allocate (rows(0), steps_rows(0))
+        do k = 1, size(files)
+            if (status%ok()) call read_bench_csv(dir // "/" // trim(files(k)), rows, status, &
+                                                 .true.)
+        end do
+        if (status%ok()) call read_bench_csv(dir // "/steps.csv", steps_rows, status, .true.)
+        if (status%ok()) call read_bench_csv(dir // "/steps64.csv", steps_rows, status, .true.)
+        if (.not. status%ok()) return
+        open (newunit=unit, file=dir // "/performance.md", status="replace", action="write", &
+              iostat=ios, iomsg=message)
+        if (ios /= 0) then
+            call fail(status, "cannot write " // dir // "/performance.md: " // trim(message))
+            return
+        end if
+        call write_performance(dir, rows, steps_rows, unit)
+        close (unit)
+    end subroutine write_reports
+
+    !> Verdicts on the speed targets at fixed T: for each precision, target and system,
+    !! heyoka's time / holosym's against the required ratio.
+    subroutine target_verdicts(rows, unit)
+        type(bench_row_t), intent(in) :: rows(:)
+        integer, intent(in) :: unit
+        integer :: precision, t, s, best, taylor, met, total
+        real(real64) :: required, ratio, worst
+        character(len=:), allocatable :: prec, smallest
+        do precision = 1, 2
+            prec = merge("real128", "real64 ", precision == 2)
+            required = merge(2.0_real64, 1.0_real64, precision == 2)
+            met = 0
+            total = 0
+            worst = huge(1.0_real64)
+            do t = 1, size(bench_targets)
+                if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
+                do s = 1, size(bench_systems)
+                    taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
+                                      bench_targets(t))
+                    if (taylor == 0) cycle  ! heyoka does not reach it: no comparison
+                    total = total + 1
+                    best = cheapest(rows, trim(bench_systems(s)), "holosym", trim(prec), &
+                                    bench_targets(t))
+                    if (best == 0) cycle
+                    ratio = rows(taylor)%seconds / rows(best)%seconds
+                    worst = min(worst, ratio)
+                    if (ratio >= required) met = met + 1
+                end do
+            end do
+            if (total == 0) then
+                write (unit, '(a)') "- " // trim(prec) // ": no heyoka rows (run with --heyoka)."
+            else
+                smallest = "—"
+                if (worst < huge(1.0_real64)) smallest = ratio_text(worst)
+                write (unit, '(a)') "- " // trim(prec) // " (holosym at least " // &
+                    ratio_text(required) // "x faster than heyoka wherever heyoka reaches " // &
+                    "the target): met at " // int_str(met) // " of " // int_str(total) // &
+                    " (target, system) pairs; smallest heyoka / holosym ratio " // smallest // &
+                    " (pairs holosym does not reach count as missed)."
+            end if
+        end do
+    end subroutine target_verdicts
+
+    !> docs/performance.md: how it was measured, the targets with their measured ratios,
+    !! the work-precision tables, the scaling and long-run sections and the figures.
+    subroutine write_performance(dir, rows, steps_rows, unit)
+        character(len=*), intent(in) :: dir
+        type(bench_row_t), intent(in) :: rows(:), steps_rows(:)
+        integer, intent(in) :: unit
+        character(len=512) :: line
+        integer :: info, ios
+        write (unit, '(a)') "# Performance"
+        write (unit, '(a)') ""
+        write (unit, '(a)') "Generated by `make bench` (`holosym bench --summarize " // dir // &
+            "` from the CSV files there); edits are overwritten. Every number below was " // &
+            "measured in that run: holosym, RATTLE composed inside holosym and heyoka side " // &
+            "by side, against one reference."
+        write (unit, '(a)') ""
+        write (unit, '(a)') "## How it was measured"
+        write (unit, '(a)') ""
+        write (unit, '(a)') "- `make bench`: `holosym bench --heyoka PYTHON` in the real128 " // &
+            "build (writes the reference), the same in the real64 build against that " // &
+            "reference, `holosym bench --scaling` in both builds, then plots and this page. " // &
+            "`make bench-long`: `holosym bench --long --heyoka PYTHON` (about an hour of CPU)."
+        write (unit, '(a)') "- Competitor: heyoka (the `heyoka` package on PyPI, Taylor " // &
+            "method with LLVM compilation), installed by `tools/bench_venv.sh` into the " // &
+            "benchmark's virtual environment, run by `tools/heyoka_bench.py` on the index-1 " // &
+            "form of each system (Cartesian coordinates, the multipliers from the twice " // &
+            "differentiated constraint), same H, parameters and initial states; tolerance " // &
+            "swept by decades, compile time excluded and reported apart."
+        open (newunit=info, file=dir // "/environment.txt", status="old", action="read", &
+              iostat=ios)
+        if (ios == 0) then
+            do
+                read (info, '(a)', iostat=ios) line
+                if (ios /= 0) exit
+                write (unit, '(a)') "- " // trim(line)
+            end do
+            close (info)
+        end if
+        write (unit, '(a)') ""
+        write (unit, '(a)') "## Targets at fixed T, measured"
+        write (unit, '(a)') ""
+        call target_verdicts(rows, unit)
+        write (unit, '(a)') ""
+        write (unit, '(a)') "![work-precision](figures/work_precision.png)"
+        write (unit, '(a)') ""
+        call write_summary(rows, steps_rows, unit, nested=.true.)
+        call scaling_section(dir, unit)
+        write (unit, '(a)') ""
+        write (unit, '(a)') "![cost against K](figures/scaling.png)"
+        call long_section(dir, unit)
+    end subroutine write_performance
+
+    !> The scaling study: every (K, path) in a child process, lines into DIR/scaling.csv.
+    subroutine run_scaling(options, err_unit, status)
+        type(bench_options_t), intent(in) :: options
+        integer, intent(in) :: err_unit
+        type(holosym_status_t), intent(inout) :: status
+        character(len=:), allocatable :: executable, csv, command, part
+        integer, allocatable :: links(:)
+        integer :: k, path, length, unit, ios, exit_code
+        character(len=256) :: message
+        call get_command_argument(0, length=length)
+        allocate (character(len=length) :: executable)
+        call get_command_argument(0, executable)
+        csv = options%out_dir // "/" // trim(merge("scaling64.csv", "scaling.csv  ", &
+                                                   wp_is_double))
+        part = csv // ".point"
+        open (newunit=unit, file=csv, status="replace", action="write", iostat=ios, &
+              iomsg=message)
+        if (ios /= 0) then
+            call fail(status, "cannot write " // csv // ": " // trim(message))
+            return
+        end if
+        write (unit, '(a)') scaling_header
+        close (unit)
+        links = scaling_links(options%quick)
+        do k = 1, size(links)
+            do path = 1, 2
+                if (path == 2 .and. links(k) > general_links_limit(options%quick)) cycle
+                command = "'" // executable // "' bench --scaling-point " // &
+                    int_str(links(k))
+                if (path == 2) command = command // " --general"
+                if (options%quick) command = command // " --quick"
+                call execute_command_line(command // " > '" // part // "' && cat '" // part // &
+                    "' >> '" // csv // "'", exitstat=exit_code)
+                if (exit_code /= 0) then
+                    call fail(status, "scaling point failed: " // command)
+                    return
+                end if
+                write (err_unit, '(a)') "bench --scaling: K = " // int_str(links(k)) // &
+                    merge(" general", " reduced", path == 2) // " done"
+            end do
+        end do
+        call execute_command_line("rm -f '" // part // "'")
+    end subroutine run_scaling
 
 end module holosym_cli_bench
 

@@ -14,7 +14,8 @@ module holosym_cli_simulate
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_manifold, only: manifold_residuals
     use holosym_observers, only: trajectory_header
-    use holosym_systems, only: make_system, is_system_name, system_names, system_choices
+    use holosym_systems, only: make_system, is_system_name, system_names, system_choices, &
+        default_links, max_links
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
@@ -43,6 +44,8 @@ module holosym_cli_simulate
     type :: simulate_config_t
         !> System name, one of `system_names`.
         character(len=:), allocatable :: system
+        !> Links of the chain (--links, only with --system chain).
+        integer :: links = default_links
         !> M >= 1: degree of the displacement polynomial.
         integer :: order_m = default_order_m
         !> N >= 0: degree of the momentum polynomial (default M - 1).
@@ -136,12 +139,16 @@ contains
             "  --system NAME  pendulum: spherical pendulum, paper Example 1 (n = 3, m = 1)", &
             "                 linkage:  spring-linkage mechanism, Example 2 (n = 6, m = 3)", &
             "                 planar:   planar pendulum (n = 2, m = 1)", &
+            "                 chain:    K planar pendula in a chain (n = 2K, m = K), links", &
+            "                           at 0.5 rad from the vertical, at rest", &
             "                 double:   double pendulum, masses 1, 2, rods 1, 0.7 (n = 4, m = 2)", &
             "                 dumbbell: two bodies on a sphere joined by a rod (n = 6, m = 3)", &
             "                 magnetic: charged particle on a sphere in a magnetic field,", &
             "                           H not separable (n = 3, m = 1)", &
             "                 generic:  spherical pendulum in a potential without rotational", &
             "                           symmetry (n = 3, m = 1)              [pendulum]", &
+            "  --links K      links of the chain, 1 to 100000; cost and memory per step", &
+            "                 grow linearly with K                           [8]", &
             "  --M INT        degree of the displacement polynomial, >= 1    [2]", &
             "  --N INT        degree of the momentum polynomial, >= 0        [M - 1]", &
             "  --G INT        Gauss-Legendre points, >= 1                    [max(M, N) + 1]", &
@@ -183,7 +190,7 @@ contains
         type(simulate_config_t), intent(out) :: config    !! parsed settings
         type(holosym_status_t), intent(out) :: status     !! outcome
         character(len=:), allocatable :: name, inline, value
-        logical :: has_inline, n_given, g_given, t_given, steps_given
+        logical :: has_inline, n_given, g_given, t_given, steps_given, links_given
         integer :: i
 
         config%system = system_names(1)
@@ -195,6 +202,7 @@ contains
         g_given = .false.
         t_given = .false.
         steps_given = .false.
+        links_given = .false.
         i = 1
         do while (i <= size(args))
             call split_option(args(i)%text, name, inline, has_inline)
@@ -215,7 +223,7 @@ contains
                 end if
                 config%plain = .true.
             case ("--system", "--M", "--m", "--N", "--n", "--G", "--g", "--h", "--T", "--t", &
-                  "--steps", "--every", "--output")
+                  "--steps", "--every", "--output", "--links")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
                 call set_option(config, name, value, status)
@@ -229,6 +237,8 @@ contains
                     t_given = .true.
                 case ("--steps")
                     steps_given = .true.
+                case ("--links")
+                    links_given = .true.
                 end select
             case default
                 if (name(1:min(1, len(name))) == "-") then
@@ -240,6 +250,10 @@ contains
             end select
             i = i + 1
         end do
+        if (links_given .and. config%system /= "chain") then
+            call fail(status, "option --links needs --system chain")
+            return
+        end if
         if (.not. n_given) config%order_n = config%order_m - 1
         if (.not. g_given) config%gauss_points = max(config%order_m, config%order_n) + 1
         if (.not. steps_given) then
@@ -288,6 +302,10 @@ contains
             if (status%ok()) call require(config%every >= 1, ">= 1")
         case ("--output")
             config%output = value
+        case ("--links")
+            call parse_integer(name, value, config%links, status)
+            if (status%ok()) call require(config%links >= 1 .and. config%links <= max_links, &
+                "in 1.." // int_str(max_links))
         end select
     contains
         !> Fail with "option NAME must be BOUND; got VALUE" unless `condition` holds.
@@ -350,7 +368,7 @@ contains
         integer :: unit, ios, steps_done
         character(len=256) :: io_message
 
-        call make_system(config%system, sys, q, p, status)
+        call make_system(config%system, sys, q, p, status, config%links)
         if (.not. status%ok()) return
         if (config%plain) then
             integrator%structured = .false.
@@ -443,8 +461,8 @@ contains
         flush (err_unit)
     end subroutine write_summary
 
-    !> Observer: after step k, write the t = 0 row (at k = 1), the row of step k when k is
-    !! a multiple of `every` or the last step, and update the summary.
+    !> The observer binding: after step k, write the t = 0 row (at k = 1), the row of
+    !! step k when k is a multiple of `every` or the last step, and update the summary.
     subroutine csv_writer_observe(self, step, t, q, p, info, halt)
         class(csv_writer), intent(inout) :: self  !! the writer
         integer, intent(in) :: step          !! step number k >= 1

@@ -18,6 +18,8 @@ module holosym_cli_tables
         cli_argument_t, split_option, option_value, parse_integer, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
     use holosym_systems, only: make_system, is_system_name, system_names, system_choices
+    use holosym_task_farm, only: farm_job, task_farm
+    use holosym_records, only: record_reader_t, put
     implicit none
     private
 
@@ -69,6 +71,18 @@ module holosym_cli_tables
         real(wp) :: seconds = 0           !! wall time
         type(study_settings_t) :: settings
     end type tables_result_t
+
+    !> Table 3 as tasks of a farm: task i is the cell (M, N) of the grid, column-major.
+    type, extends(farm_job) :: gauss_job
+        class(constrained_hamiltonian), allocatable :: sys
+        real(wp), allocatable :: q0(:), p0(:)
+        integer :: max_m = 0
+        integer :: max_n = 0
+        integer, allocatable :: min_gauss(:, :)
+    contains
+        procedure :: run => gauss_job_run
+        procedure :: accept => gauss_job_accept
+    end type gauss_job
 
     interface
         !> Does nothing. Its body, in the submodule at the end of this file, keeps this
@@ -204,12 +218,15 @@ contains
         end if
     end subroutine parse_step_list
 
-    !> Run the three studies.
-    subroutine compute_tables(options, result, err_unit, status)
+    !> Run the three studies: the cells on OpenMP threads, or on the ranks of `farm` (every
+    !! rank calls this; `result` is complete on the collector).
+    subroutine compute_tables(options, result, err_unit, status, farm)
         type(tables_options_t), intent(in) :: options  !! parsed settings
         type(tables_result_t), intent(out) :: result   !! measurements
         integer, intent(in) :: err_unit                !! progress lines
         type(holosym_status_t), intent(out) :: status  !! outcome
+        class(task_farm), intent(inout), optional :: farm !! who computes the cells
+        type(gauss_job) :: job
         class(constrained_hamiltonian), allocatable :: sys
         real(wp), allocatable :: q0(:), p0(:), q_ref(:), q_check(:)
         type(holosym_status_t) :: ref_status(2)
@@ -258,7 +275,8 @@ contains
                 result%table1(i)%gauss_points = max(order_m, order_n) + 1
             end do
         end do
-        call run_order_cells(sys, q0, p0, q_ref, result%settings, result%table1, "table 1")
+        call run_order_cells(sys, q0, p0, q_ref, result%settings, result%table1, "table 1", &
+                             farm)
 
         max_n_table2 = max(options%max_m - 1, 1)
         allocate (result%table2(max_n_table2 * (extra_gauss + 1)))
@@ -271,28 +289,69 @@ contains
                 result%table2(i)%gauss_points = order_n + 1 + order_m
             end do
         end do
-        call run_order_cells(sys, q0, p0, q_ref, result%settings, result%table2, "table 2")
+        call run_order_cells(sys, q0, p0, q_ref, result%settings, result%table2, "table 2", &
+                             farm)
 
         allocate (result%min_gauss(options%max_m, 0:options%max_n))
         allocate (search_status(options%max_m, 0:options%max_n))
-        !$omp parallel do collapse(2) schedule(dynamic, 1) private(order_m, order_n)
-        do order_m = 1, options%max_m
-            do order_n = 0, options%max_n
-                call minimum_gauss_points(sys, q0, p0, order_m, order_n, trial_step, &
-                    max(order_m, order_n) + extra_gauss, result%min_gauss(order_m, order_n), &
-                    search_status(order_m, order_n))
-                ! A failure other than a singular Jacobian is shown as such, not as "none".
-                if (.not. search_status(order_m, order_n)%ok()) &
-                    result%min_gauss(order_m, order_n) = search_failed
+        if (present(farm)) then
+            allocate (job%sys, source=sys)
+            job%q0 = q0
+            job%p0 = p0
+            job%max_m = options%max_m
+            job%max_n = options%max_n
+            allocate (job%min_gauss(options%max_m, 0:options%max_n), source=0)
+            call farm%execute(job, [(i, i = size(job%min_gauss), 1, -1)], status)
+            if (.not. status%ok()) return
+            result%min_gauss = job%min_gauss
+        else
+            !$omp parallel do collapse(2) schedule(dynamic, 1) private(order_m, order_n)
+            do order_m = 1, options%max_m
+                do order_n = 0, options%max_n
+                    call minimum_gauss_points(sys, q0, p0, order_m, order_n, trial_step, &
+                        max(order_m, order_n) + extra_gauss, result%min_gauss(order_m, order_n), &
+                        search_status(order_m, order_n))
+                    ! A failure other than a singular Jacobian is shown as such, not as "none".
+                    if (.not. search_status(order_m, order_n)%ok()) &
+                        result%min_gauss(order_m, order_n) = search_failed
+                end do
             end do
-        end do
-        !$omp end parallel do
+            !$omp end parallel do
+        end if
         result%max_gauss_tried = extra_gauss
         call system_clock(count_end)
         result%seconds = real(count_end - count_start, wp) / count_rate
         status%code = HOLOSYM_SUCCESS
         status%message = ""
     end subroutine compute_tables
+
+    !> Task i: the minimum-G search of grid cell i (M = 1 + mod(i - 1, max_m)).
+    subroutine gauss_job_run(self, task, record)
+        class(gauss_job), intent(in) :: self
+        integer, intent(in) :: task
+        character(len=:), allocatable, intent(out) :: record
+        type(holosym_status_t) :: search_status
+        integer :: order_m, order_n, gauss_min
+        order_m = 1 + mod(task - 1, self%max_m)
+        order_n = (task - 1) / self%max_m
+        call minimum_gauss_points(self%sys, self%q0, self%p0, order_m, order_n, trial_step, &
+            max(order_m, order_n) + extra_gauss, gauss_min, search_status)
+        ! A failure other than a singular Jacobian is shown as such, not as "none".
+        if (.not. search_status%ok()) gauss_min = search_failed
+        record = ""
+        call put(record, gauss_min)
+    end subroutine gauss_job_run
+
+    !> Store the result of grid cell i.
+    subroutine gauss_job_accept(self, task, record, halt)
+        class(gauss_job), intent(inout) :: self
+        integer, intent(in) :: task
+        character(len=*), intent(in) :: record
+        logical, intent(inout) :: halt
+        type(record_reader_t) :: reader
+        self%min_gauss(1 + mod(task - 1, self%max_m), (task - 1) / self%max_m) = &
+            reader%integer(record)
+    end subroutine gauss_job_accept
 
     !> "1/8" for reciprocals of integers, else the decimal value.
     function step_text(h) result(text)
@@ -570,11 +629,13 @@ contains
     end subroutine write_tables_csv
 
     !> `holosym tables [options]`: parse, compute, write. Exit 0 success, 1 failure, 2 usage.
-    subroutine tables_command(args, out_unit, err_unit, exit_code)
+    !! With `farm` (holosym-mpi) the cells run on its ranks and only the collector writes.
+    subroutine tables_command(args, out_unit, err_unit, exit_code, farm)
         type(cli_argument_t), intent(in) :: args(:) !! the command's arguments
         integer, intent(in) :: out_unit   !! Markdown tables
         integer, intent(in) :: err_unit   !! progress and errors
         integer, intent(out) :: exit_code !! process exit code
+        class(task_farm), intent(inout), optional :: farm !! who computes the cells
         type(tables_options_t) :: options
         type(tables_result_t) :: result
         type(holosym_status_t) :: status
@@ -582,7 +643,13 @@ contains
         call parse_tables_options(args, options, status)
         if (.not. parsed_command_proceeds("tables", status, options%help, tables_help(), &
                                           out_unit, err_unit, exit_code)) return
-        call compute_tables(options, result, err_unit, status)
+        call compute_tables(options, result, err_unit, status, farm)
+        if (present(farm)) then
+            if (.not. farm%is_collector()) then
+                exit_code = merge(EXIT_OK, EXIT_FAILURE, status%ok())
+                return
+            end if
+        end if
         if (status%ok()) call write_tables_markdown(result, out_unit)
         if (status%ok() .and. len(options%csv_dir) > 0) then
             call execute_command_line("mkdir -p '" // options%csv_dir // "'")

@@ -1,7 +1,7 @@
 !> Convergence studies behind the `tables` command: measured orders of the energy error
 !! and of the global error for a grid of (M, N, G), and the smallest G that gives a
 !! nonsingular Newton Jacobian. Cells are independent and run in parallel with OpenMP
-!! when the library is built with it.
+!! when the library is built with it, or on the ranks of a task farm (holosym-mpi).
 module holosym_convergence
     use, intrinsic :: iso_fortran_env, only: error_unit
     use holosym_kinds, only: wp
@@ -9,6 +9,8 @@ module holosym_convergence
         HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_INVALID_ORDER
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator
+    use holosym_task_farm, only: farm_job, task_farm
+    use holosym_records, only: record_reader_t, put
     implicit none
     private
 
@@ -61,6 +63,19 @@ module holosym_convergence
         !> Wall-clock seconds of the cell.
         real(wp) :: seconds = 0
     end type order_cell_t
+
+    !> The cells of `run_order_cells` as tasks of a farm: task i is cells(i).
+    type, extends(farm_job) :: cells_job
+        class(constrained_hamiltonian), allocatable :: sys
+        real(wp), allocatable :: q0(:), p0(:), q_ref(:)
+        type(study_settings_t) :: settings
+        type(order_cell_t), allocatable :: cells(:)
+        character(len=:), allocatable :: label
+        integer :: finished = 0
+    contains
+        procedure :: run => cells_job_run
+        procedure :: accept => cells_job_accept
+    end type cells_job
 
     interface
         !> Does nothing. Its body, in the submodule at the end of this file, keeps this
@@ -211,8 +226,9 @@ contains
         end do
     end subroutine pick_pair
 
-    !> Measure all cells, in parallel across threads when built with OpenMP.
-    subroutine run_order_cells(sys, q0, p0, q_ref, settings, cells, label)
+    !> Measure all cells, in parallel across threads when built with OpenMP, or on the
+    !! ranks of `farm` (every rank calls this; the cells are complete on the collector).
+    subroutine run_order_cells(sys, q0, p0, q_ref, settings, cells, label, farm)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         real(wp), intent(in) :: q0(:)     !! initial coordinates
         real(wp), intent(in) :: p0(:)     !! initial momenta
@@ -220,7 +236,23 @@ contains
         type(study_settings_t), intent(in) :: settings !! study settings
         type(order_cell_t), intent(inout) :: cells(:)  !! (M, N, G) in, measurements out
         character(len=*), intent(in) :: label          !! name for progress lines
+        class(task_farm), intent(inout), optional :: farm !! who computes the cells
+        type(cells_job) :: job
+        type(holosym_status_t) :: status
         integer :: i, finished
+        if (present(farm)) then
+            allocate (job%sys, source=sys)
+            job%q0 = q0
+            job%p0 = p0
+            job%q_ref = q_ref
+            job%settings = settings
+            job%cells = cells
+            job%label = label
+            ! Largest configurations first: better load balance.
+            call farm%execute(job, [(i, i = size(cells), 1, -1)], status)
+            cells = job%cells
+            return
+        end if
         finished = 0
         !$omp parallel do schedule(dynamic, 1) default(shared) private(i)
         do i = size(cells), 1, -1
@@ -236,6 +268,58 @@ contains
         end do
         !$omp end parallel do
     end subroutine run_order_cells
+
+    !> Task i: measure cells(i) and pack it.
+    subroutine cells_job_run(self, task, record)
+        class(cells_job), intent(in) :: self
+        integer, intent(in) :: task
+        character(len=:), allocatable, intent(out) :: record
+        type(order_cell_t) :: cell
+        cell = self%cells(task)
+        call measure_order(self%sys, self%q0, self%p0, self%q_ref, self%settings, cell)
+        if (.not. allocated(cell%message)) cell%message = ""
+        record = ""
+        call put(record, cell%code)
+        call put(record, cell%message)
+        call put(record, cell%levels)
+        call put(record, cell%energy_h)
+        call put(record, cell%energy_error)
+        call put(record, cell%energy_order)
+        call put(record, cell%energy_measured)
+        call put(record, cell%global_h)
+        call put(record, cell%global_error)
+        call put(record, cell%global_order)
+        call put(record, cell%global_measured)
+        call put(record, cell%seconds)
+    end subroutine cells_job_run
+
+    !> Unpack the measurements of cells(i); a progress line.
+    subroutine cells_job_accept(self, task, record, halt)
+        class(cells_job), intent(inout) :: self
+        integer, intent(in) :: task
+        character(len=*), intent(in) :: record
+        logical, intent(inout) :: halt
+        type(record_reader_t) :: reader
+        associate (cell => self%cells(task))
+            cell%code = reader%integer(record)
+            cell%message = reader%text(record)
+            cell%levels = reader%integer(record)
+            cell%energy_h = reader%reals(record)
+            cell%energy_error = reader%reals(record)
+            cell%energy_order = reader%real(record)
+            cell%energy_measured = reader%logical(record)
+            cell%global_h = reader%reals(record)
+            cell%global_error = reader%reals(record)
+            cell%global_order = reader%real(record)
+            cell%global_measured = reader%logical(record)
+            cell%seconds = reader%real(record)
+            self%finished = self%finished + 1
+            if (self%settings%progress) write (error_unit, '(a)') self%label // ": " // &
+                int_str(self%finished) // "/" // int_str(size(self%cells)) // &
+                " (M, N, G) = (" // int_str(cell%order_m) // ", " // int_str(cell%order_n) &
+                // ", " // int_str(cell%gauss_points) // ") " // seconds_text(cell%seconds)
+        end associate
+    end subroutine cells_job_accept
 
     !> Smallest G in 1..max_gauss for which the first step's Newton Jacobian is nonsingular
     !! (LU pivot test with the default relative threshold), or 0 if none is.

@@ -41,7 +41,6 @@ module holosym_extremes
     public :: gauss_rule_error, lobatto_rule_error, basis_error
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
-    real(wp), parameter :: pi = 4 * atan(1.0_wp)
 
     !> The paper's best low-order scheme N = M - 1 = G - 2 = 1 and its Fig. 1 step h = 1/8.
     integer, parameter, public :: paper_order_m = 2, paper_order_n = 1, paper_gauss = 3
@@ -237,6 +236,11 @@ module holosym_extremes
     end interface
 
 contains
+
+    !> pi in working precision (a function: real128 atan is not folded by every compiler).
+    pure real(wp) function pi()
+        pi = 4 * atan(1.0_wp)
+    end function pi
 
     ! ------------------------------------------------------------------ settings, helpers
 
@@ -541,7 +545,7 @@ contains
         sys = spherical_pendulum()
         call sys%initial_state(q0, p0)
         do r = 1, realizations
-            angle = 2 * pi * (r - 1) / realizations
+            angle = 2 * pi() * (r - 1) / realizations
             q = [cos(angle) * q0(1) - sin(angle) * q0(2), sin(angle) * q0(1) + cos(angle) * q0(2), &
                  q0(3)]
             p = [cos(angle) * p0(1) - sin(angle) * p0(2), sin(angle) * p0(1) + cos(angle) * p0(2), &
@@ -1129,7 +1133,7 @@ contains
         call sys%initial_state(q, p)
         omega = sqrt(cell%stiffness / sys%track_mass)
         cell%h = cell%omega_h / omega
-        cell%steps = max(1, nint(periods * 2 * pi / cell%omega_h))
+        cell%steps = max(1, nint(periods * 2 * pi() / cell%omega_h))
         call monitor_start(monitor, sys, q, p, cell%steps, growth_block_factor, .false., &
                            cell%steps)
         call integrator%init(sys, cell%order_m, cell%order_n, cell%gauss_points, local)

@@ -11,11 +11,11 @@
 !!       q      =  5.6142228189076226E-01 -2.8936967664913082E-01  7.7528718010331304E-01
 !!       p      = -3.7442291720922819E-01 -5.6270910581803190E-01  6.1110795831038864E-02
 !!       lambda =  5.0733614776621972E-01   (end of the last step)
-!!     |q|^2 - 1 at t = 200:                           0.000E+00
+!!     |q|^2 - 1 at t = 200:                           1.926E-34
 !!     max |(H - H0)/H0| over 200 s (H0 = -0.4696):    5.365E-08
 !!     max |phi| at the displacement nodes:            3.852E-34
-!!     max |Phi H_p| at the step ends:                 3.250E-34
-!!     Newton iterations per step:                          4.00
+!!     max |Phi H_p| at the step ends:                 2.483E-34
+!!     Newton iterations per step:                          6.01
 program example_spherical_pendulum
     use holosym, only: wp, spherical_pendulum, constrained_integrator, step_info_t, &
         holosym_status_t

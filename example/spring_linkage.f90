@@ -29,7 +29,7 @@
 !!              fine -0.2307620 -0.0360935  0.5378968  0.1856352
 !!     largest coarse-fine difference in the balls' positions:   3.633E-03
 !!     max |(H - H0)/H0|, coarse and fine:             1.139E-03  4.538E-14
-!!     max |phi| at the nodes, coarse and fine:        1.926E-34  2.889E-34
+!!     max |phi| at the nodes, coarse and fine:        2.889E-34  2.889E-34
 program example_spring_linkage
     use holosym, only: wp, spring_linkage, constrained_integrator, holosym_status_t
     use spring_linkage_monitor, only: linkage_monitor

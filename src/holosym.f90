@@ -1,12 +1,66 @@
-!> holosym: high-order symplectic integration of Hamiltonian systems with holonomic
-!! constraints, in quadruple precision. `use holosym` gives the whole public API; the other
-!! modules of the library are its parts and need not be used directly.
+!> The public API of holosym: `use holosym` gives everything a user needs, and only that.
 !!
+!! High-order symplectic integration of Hamiltonian systems with holonomic constraints,
+!! in quadruple precision. The other modules are internal: the public entities users need
+!! are re-exported here, and the pages of the modules that define them document them.
 !! Left out on purpose: the message helpers of holosym_status (`set_status`, `int_str`,
-!! `real_str`, `is_finite`), the finiteness checks of holosym_newton (`all_finite`,
-!! `all_finite_matrix`) and the kernel modules of the scheme, which only the library uses.
+!! `real_str`, `is_finite`), the CSV helpers of holosym_ensemble_files (`parse_csv_fields`,
+!! `csv_text_t`), `sorted_order` of holosym_ensemble and the kernel modules of the schemes.
+!!
+!! - [[holosym_kinds:wp]], `dp`, `wp_is_double`: the working kind (real128, or real64 with
+!!   `-DHOLOSYM_REAL64`), real64, and whether they are the same.
+!! - [[holosym_release:holosym_version]]: the library's version, "MAJOR.MINOR.PATCH".
+!! - [[constrained_hamiltonian]]: the abstract type a user extends with H, its gradients,
+!!   the constraints phi and their Jacobian Phi; second derivatives and the structure
+!!   declarations (constant diagonal mass matrix, sparsity) are optional.
+!!   [[difference_hessian]], [[difference_constraint_hessian]]: the default second
+!!   derivatives (central differences).
+!! - [[constrained_integrator]]: `init`, `step`, `integrate`, `dense_output`, the settings
+!!   and the work counters `stats` ([[integrator_stats_t]]).
+!! - [[step_info_t]], [[step_observer]]: diagnostics of one step; the observer that
+!!   `integrate` calls after each step.
+!! - [[newton_settings_t]], [[newton_report_t]]: the Newton settings of an integrator
+!!   (`integ%newton`) and what one solve did; [[nonlinear_system]], [[newton_solve]],
+!!   [[newton_workspace_t]], `LINEAR_SOLVER_NATIVE`, `LINEAR_SOLVER_MIXED`: Newton's method
+!!   on any square system.
+!! - [[discrete_scheme]], [[scheme_counters_t]], [[unknown_count]]: the general scheme's
+!!   equations of one step and their size for (M, N, G, n, m); `JACOBIAN_ASSEMBLED`,
+!!   `JACOBIAN_RESIDUAL_DIFFERENCES`, `HESSIANS_USER`, `HESSIANS_DIFFERENCES`: its modes.
+!! - [[project_to_manifold]], [[projection_report_t]],
+!!   `projection_max_iterations_default`: moves a nearby state onto the manifold.
+!! - [[manifold_residuals]], [[full_rank_constraints]], `manifold_tolerance_default`:
+!!   the constraint residuals of a state; the rank test of Phi.
+!! - [[spherical_pendulum]], [[spring_linkage]], [[planar_pendulum]],
+!!   [[pendulum_chain]]: the paper's example systems, a planar pendulum and a chain of
+!!   planar pendula (the double pendulum for two links).
+!! - [[rattle_integrator]], [[rattle_stats_t]], [[composition_coefficients]],
+!!   `rattle_max_order`: the RATTLE baseline and its symmetric compositions.
+!! - [[run_ensemble]], [[ensemble_settings_t]], [[ensemble_states_t]],
+!!   [[ensemble_result_t]], [[ensemble_sink]], [[check_ensemble]], [[ensemble_steps]],
+!!   [[integrate_member]], [[perturbed_states]]: many trajectories of one system on threads
+!!   (or MPI ranks), results by id; [[read_ensemble_states]], [[ensemble_csv_sink]],
+!!   [[result_header]], [[result_row]], [[samples_header]]: their CSV files (docs/ensemble.md).
+!! - [[farm_job]], [[task_farm]], [[openmp_farm]], [[record_reader_t]], `put`: the task farm
+!!   under the ensemble (a job's tasks on workers, results to one collector, packed as
+!!   records), for parallel drivers of one's own.
+!! - [[gauss_legendre]], [[gauss_lobatto]]: quadrature rules on [0, 1].
+!! - [[lagrange_values]], [[lagrange_derivatives]], [[lagrange_matrices]]: the Lagrange
+!!   basis on given nodes.
+!! - [[lu_factor]], [[lu_solve]], [[default_pivot_tolerance]]: LU factorisation with
+!!   partial pivoting in working precision; [[lu_factor_dp]], [[lu_solve_dp]],
+!!   [[default_pivot_tolerance_dp]]: the same in real64 through LAPACK.
+!! - [[holosym_status_t]], [[status_code_name]]: the status returned through the optional
+!!   `status` argument of every fallible procedure; the name of a code.
+!! - `HOLOSYM_SUCCESS`, `HOLOSYM_INVALID_ORDER`, `HOLOSYM_INVALID_DIMENSION`,
+!!   `HOLOSYM_SIZE_MISMATCH`, `HOLOSYM_INVALID_STEP_SIZE`, `HOLOSYM_INVALID_STEP_COUNT`,
+!!   `HOLOSYM_OFF_MANIFOLD`, `HOLOSYM_USER_ABORT`, `HOLOSYM_NOT_INITIALIZED`,
+!!   `HOLOSYM_INVALID_ARGUMENT`, `HOLOSYM_SINGULAR_MATRIX`, `HOLOSYM_NEWTON_NOT_CONVERGED`,
+!!   `HOLOSYM_NEWTON_DIVERGED`, `HOLOSYM_NONFINITE_VALUE`,
+!!   `HOLOSYM_RANK_DEFICIENT_CONSTRAINTS`: the status codes (0 success, negative invalid
+!!   input, positive numerical failure; see [[holosym_status]]).
 module holosym
     use holosym_kinds, only: wp, dp, wp_is_double
+    use holosym_release, only: holosym_version
     use holosym_status, only: holosym_status_t, status_code_name, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
@@ -38,11 +92,20 @@ module holosym
     use holosym_observers, only: trajectory_writer, energy_monitor, trajectory_header
     use holosym_rattle, only: rattle_integrator, rattle_stats_t, composition_coefficients, &
         rattle_max_order
+    use holosym_task_farm, only: farm_job, task_farm, openmp_farm
+    use holosym_records, only: record_reader_t, put
+    use holosym_ensemble, only: ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
+        ensemble_sink, run_ensemble, check_ensemble, ensemble_steps, integrate_member, &
+        perturbed_states
+    use holosym_ensemble_files, only: read_ensemble_states, ensemble_csv_sink, result_header, &
+        result_row, samples_header
     implicit none
     private
 
     ! Kinds: working precision (real128, or real64 with -DHOLOSYM_REAL64) and real64.
     public :: wp, dp, wp_is_double
+    ! The library's version.
+    public :: holosym_version
     ! Status of every fallible procedure, its codes and their names.
     public :: holosym_status_t, status_code_name
     public :: HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, &
@@ -83,5 +146,14 @@ module holosym
     public :: trajectory_writer, energy_monitor, trajectory_header
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order
+    ! Parallel work: a task farm (OpenMP threads here; MPI ranks with holosym-mpi) and the
+    ! records in which tasks return their results.
+    public :: farm_job, task_farm, openmp_farm, record_reader_t, put
+    ! Ensembles: many trajectories of one system in parallel, and their CSV files (states
+    ! in; results written as they complete, resumable; timing log; samples).
+    public :: ensemble_settings_t, ensemble_states_t, ensemble_result_t, ensemble_sink, &
+        run_ensemble, check_ensemble, ensemble_steps, integrate_member, perturbed_states
+    public :: read_ensemble_states, ensemble_csv_sink, result_header, result_row, &
+        samples_header
 
 end module holosym

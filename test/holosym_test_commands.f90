@@ -140,26 +140,37 @@ contains
 
     !> Run a shell command line (built by the caller from quoted words) in a subshell with
     !! standard input from /dev/null; capture its exit status and both outputs (via scratch
-    !! files).
+    !! files). The shell itself always succeeds and writes the command's status to a file:
+    !! compilers differ in what `execute_command_line` reports for a command that fails
+    !! (LLVM flang sets `cmdstat` for any non-zero exit).
     subroutine run_shell(command, result)
         character(len=*), intent(in) :: command     !! the command line
         type(command_result_t), intent(out) :: result !! exit code and output lines
-        character(len=:), allocatable :: out_file, err_file
+        character(len=:), allocatable :: out_file, err_file, code_file
+        type(text_line_t), allocatable :: code(:)
         character(len=256) :: message
-        integer :: stat, ios
+        integer :: stat, ios, shell_exit
         out_file = scratch_path("command.out")
         err_file = scratch_path("command.err")
+        code_file = scratch_path("command.code")
         result%command = command
         result%failure = ""
         allocate (result%out(0), result%err(0))
         message = ""
         call execute_command_line("( " // command // " ) < /dev/null > " // &
-            shell_quote(out_file) // &
-            " 2> " // shell_quote(err_file), wait=.true., exitstat=result%exit_code, &
-            cmdstat=stat, cmdmsg=message)
+            shell_quote(out_file) // " 2> " // shell_quote(err_file) // "; echo $? > " // &
+            shell_quote(code_file), wait=.true., exitstat=shell_exit, cmdstat=stat, &
+            cmdmsg=message)
         if (stat /= 0) then
             result%exit_code = -1
             result%failure = "cannot run '" // command // "': " // trim(message)
+            return
+        end if
+        call read_lines(code_file, code, ios)
+        if (ios == 0 .and. size(code) == 1) read (code(1)%text, *, iostat=ios) result%exit_code
+        if (ios /= 0) then
+            result%exit_code = -1
+            result%failure = "no exit status of '" // command // "'"
             return
         end if
         call read_lines(out_file, result%out, ios)

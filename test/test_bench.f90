@@ -16,17 +16,15 @@ module test_bench
     private
     public :: bench_tests
 
-    !> The competitor's (GNI_COMP) real128 and double times for the spherical pendulum at
-    !! 1e-10, which the summary shows next to holosym's (inputs of the summary, not output).
-    real(real64), parameter :: competitor_pendulum_1e10_real128 = 1.6e-3_real64
-    real(real64), parameter :: competitor_pendulum_1e10_double = 3.7e-5_real64
+    !> A heyoka run's time for the spherical pendulum (an input of the summary).
+    real(real64), parameter :: heyoka_seconds = 1.6e-3_real64
     !> T of the benchmark on the pendulum.
     real(wp), parameter :: pendulum_span = 10
     !> The header of the bench CSV files.
     character(len=*), parameter :: csv_header = "system,method,precision,M,N,G,order,h," // &
         "steps,error,energy_error,constraint_residual,seconds,seconds_per_step," // &
         "newton_iterations,residual_evaluations,gradient_evaluations,hessian_evaluations," // &
-        "lu_factorizations,status,difference_from_plain"
+        "lu_factorizations,status,difference_from_plain,tolerance,compile_seconds"
     !> Exit status of a failed command.
     integer, parameter :: exit_failure = 1
 
@@ -35,7 +33,7 @@ module test_bench
         character(len=24) :: system = "", method = "", precision = ""
         integer :: order_m = 0, order_n = 0, gauss_points = 0, order = 0, steps = 0, code = 0
         real(wp) :: h = 0, error = 0, energy_error = 0, constraint_residual = 0, seconds = 0
-        real(wp) :: difference = 0
+        real(wp) :: difference = 0, tolerance = 0, compile_seconds = 0
         integer(int64) :: newton_iterations = 0, residuals = 0, gradients = 0, hessians = 0
         integer(int64) :: factorizations = 0
     end type row_t
@@ -50,7 +48,9 @@ contains
             new_test("csv_rejects_malformed_input", test_csv_malformed), &
             new_test("summary_picks_cheapest_successful_run", test_summary_cheapest), &
             new_test("summary_per_step_ratios", test_summary_per_step), &
-            new_test("command_tiny_sweep_end_to_end", test_command_end_to_end)]
+            new_test("command_tiny_sweep_end_to_end", test_command_end_to_end), &
+            new_test("scaling_quick", test_scaling_quick), &
+            new_test("long_quick", test_long_quick)]
     end function bench_tests
 
     ! ------------------------------------------------------------------ helpers
@@ -108,7 +108,8 @@ contains
             // "," // i64_text(row%newton_iterations) // "," // i64_text(row%residuals) // "," &
             // i64_text(row%gradients) // "," // i64_text(row%hessians) // "," // &
             i64_text(row%factorizations) // "," // int_str(row%code) // "," // &
-            real_text(row%difference)
+            real_text(row%difference) // "," // real_text(row%tolerance) // "," // &
+            real_text(row%compile_seconds)
     end function row_line
 
     !> Write a bench CSV file: the header and the rows.
@@ -124,14 +125,14 @@ contains
         close (unit)
     end subroutine write_rows
 
-    !> Parse a CSV line of the bench into a row; `ok` false unless it has 21 valid fields.
+    !> Parse a CSV line of the bench into a row; `ok` false unless it has 23 valid fields.
     subroutine parse_row(line, row, ok)
         character(len=*), intent(in) :: line
         type(row_t), intent(out) :: row
         logical, intent(out) :: ok
         character(len=:), allocatable :: text
-        integer :: ios(18)
-        ok = len(split_field(line, 21, ",")) > 0 .and. len(split_field(line, 22, ",")) == 0
+        integer :: ios(20)
+        ok = len(split_field(line, 23, ",")) > 0 .and. len(split_field(line, 24, ",")) == 0
         if (.not. ok) return
         row%system = split_field(line, 1, ",")
         row%method = split_field(line, 2, ",")
@@ -170,9 +171,44 @@ contains
         read (text, *, iostat=ios(16)) row%code
         text = split_field(line, 21, ",")
         read (text, *, iostat=ios(17)) row%difference
-        ios(18) = 0
+        text = split_field(line, 22, ",")
+        read (text, *, iostat=ios(18)) row%tolerance
+        text = split_field(line, 23, ",")
+        read (text, *, iostat=ios(19)) row%compile_seconds
+        ios(20) = 0
         ok = all(ios == 0)
     end subroutine parse_row
+
+    !> Field k of a CSV line read as a number (integer or real(wp)); ios /= 0 when
+    !! it is not one.
+    subroutine read_field(line, k, value, ios)
+        character(len=*), intent(in) :: line
+        integer, intent(in) :: k
+        class(*), intent(out) :: value
+        integer, intent(out) :: ios
+        character(len=:), allocatable :: text
+        text = split_field(line, k, ",")
+        ios = 1
+        select type (value)
+        type is (integer)
+            read (text, *, iostat=ios) value
+        type is (real(wp))
+            read (text, *, iostat=ios) value
+        end select
+    end subroutine read_field
+
+    !> A ratio as the summary writes it: two decimals below 10, one above.
+    function ratio_expected(ratio) result(text)
+        real(real64), intent(in) :: ratio
+        character(len=:), allocatable :: text
+        character(len=16) :: buffer
+        if (ratio < 10) then
+            write (buffer, '(f10.2)') ratio
+        else
+            write (buffer, '(f10.1)') ratio
+        end if
+        text = trim(adjustl(buffer))
+    end function ratio_expected
 
     !> Number of digits before the exponent of a number in scientific notation.
     pure integer function mantissa_digits(text)
@@ -316,7 +352,7 @@ contains
     subroutine test_csv_malformed(error)
         type(test_error_t), allocatable, intent(out) :: error
         character(len=*), parameter :: good_row = "pendulum,holosym,real128,2,1,3,4," // &
-            "1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2,1.25E-4,400,500,600,70,80,0,0"
+            "1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2,1.25E-4,400,500,600,70,80,0,0,0,0"
         character(len=:), allocatable :: dir, path
         type(command_result_t) :: result
 
@@ -326,20 +362,20 @@ contains
             "header", [character(len=24) :: "line 1", "header"])
         call expect_failure([character(len=1000) :: csv_header, good_row, &
             "pendulum,holosym,real128,2,1,3"], "too few fields", &
-            [character(len=24) :: "line 3", "21"])
+            [character(len=24) :: "line 3", "23"])
         call expect_failure([character(len=1000) :: csv_header, good_row // ",7"], &
-            "too many fields", [character(len=24) :: "line 2", "21"])
+            "too many fields", [character(len=24) :: "line 2", "23"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,oops,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,0,0"], "error not a number", &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "error not a number", &
             [character(len=24) :: "line 2", "error", "oops"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,holosym,real128,2,x,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,0,0"], "N not a number", &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "N not a number", &
             [character(len=24) :: "line 2", "field N"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,variant-12,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,0,0"], "unknown option set", &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "unknown option set", &
             [character(len=24) :: "line 2", "variant-12"])
 
         ! The well-formed file; bench64.csv, steps.csv and steps64.csv are missing and optional.
@@ -378,16 +414,18 @@ contains
     end subroutine test_csv_malformed
 
     !> Per target, the summary shows the cheapest successful run below it (not a failed
-    !! one, not the plain path, not a NaN error), the cheapest RATTLE run, the competitor's
-    !! time and the ratios competitor / holosym and RATTLE / holosym.
+    !! one, not the plain path, not a NaN error), the cheapest RATTLE run, the cheapest
+    !! heyoka run (from heyoka.csv, with its compile time and whole-run residuals) and the
+    !! ratios RATTLE / holosym and heyoka / holosym; real128 shows 1e-10 .. 1e-30, real64
+    !! 1e-6 .. 1e-14.
     subroutine test_summary_cheapest(error)
         type(test_error_t), allocatable, intent(out) :: error
         type(row_t), allocatable :: rows(:)
+        type(row_t) :: taylor
         type(command_result_t) :: result
         character(len=:), allocatable :: line, dir
         real(wp) :: nan
         real(real64), parameter :: best_seconds = 4.0e-3_real64, rattle_seconds = 4.0e-2_real64
-        character(len=16) :: expected
 
         dir = fresh_dir("bench_cheapest")
         nan = ieee_value(nan, ieee_quiet_nan)
@@ -405,6 +443,14 @@ contains
             make_row("pendulum", "rattle-triple-jump", "real128", 0, 0.125_wp, 1.0e-13_wp, &
                      8.0e-2_real64, 0)]
         call write_rows(dir // "/bench.csv", rows)
+        taylor = make_row("pendulum", "heyoka", "real128", 0, 0.05_wp, 1.0e-11_wp, &
+                          heyoka_seconds, 0)
+        taylor%order = 13
+        taylor%tolerance = 1.0e-12_wp
+        taylor%compile_seconds = 0.25_wp
+        taylor%constraint_residual = 3.0e-12_wp
+        taylor%energy_error = 2.0e-12_wp
+        call write_rows(dir // "/heyoka.csv", [taylor])
         call summarize(error, dir, result)
         if (allocated(error)) return
         call check(error, result%exit_code == 0, "--summarize exits " // &
@@ -416,38 +462,43 @@ contains
         call check(error, cell(line, 3) == "(6,5,7) h=1.000", "cheapest holosym: " // line)
         call check(error, cell(line, 4) == "4.00E-03", "its seconds: " // cell(line, 4))
         call check(error, cell(line, 5) == "suzuki p=0 h=0.2500", "cheapest RATTLE: " // line)
-        call check(error, cell(line, 7) == "1.60E-03", "the competitor's time: " // &
-            cell(line, 7))
-        write (expected, '(f10.1)') competitor_pendulum_1e10_real128 / best_seconds
-        call check(error, cell(line, 8) == trim(adjustl(expected)), "x table " // &
-            cell(line, 8) // ", expected " // trim(adjustl(expected)))
-        write (expected, '(f10.1)') rattle_seconds / best_seconds
-        call check(error, cell(line, 9) == trim(adjustl(expected)), "x RATTLE " // cell(line, 9))
+        call check(error, cell(line, 7) == ratio_expected(rattle_seconds / best_seconds), &
+            "x RATTLE " // cell(line, 7))
+        call check(error, cell(line, 8) == "tol 1.0E-12, order 13", "heyoka run: " // line)
+        call check(error, cell(line, 9) == "1.60E-03", "heyoka's time: " // cell(line, 9))
+        call check(error, cell(line, 10) == ratio_expected(heyoka_seconds / best_seconds), &
+            "x heyoka " // cell(line, 10))
+        call check(error, cell(line, 11) == "2.50E-01", "compile time: " // cell(line, 11))
+        call check(error, cell(line, 12) == "3.0E-12" .and. cell(line, 13) == "2.0E-12", &
+            "heyoka's residual and energy error: " // line)
 
-        ! 1e-6: the fast order-6 run that misses 1e-10 is the cheapest; no table time there.
-        line = summary_line(result%out, "real128", "1.00000E-0006", "pendulum")
-        call check(error, cell(line, 3) == "(3,2,4) h=1.000", "1e-6: " // line)
-        call check(error, cell(line, 7) == "—" .and. cell(line, 8) == "—", "1e-6: no table")
         ! 1e-14: nothing reaches it.
         line = summary_line(result%out, "real128", "1.00000E-0014", "pendulum")
-        call check(error, cell(line, 3) == "—" .and. cell(line, 5) == "—", "1e-14: none: " // &
-            line)
+        call check(error, cell(line, 3) == "—" .and. cell(line, 5) == "—" .and. &
+            cell(line, 8) == "—", "1e-14: none: " // line)
+        ! 1e-30 is a real128 target, 1e-6 is not.
+        call check(error, len(summary_line(result%out, "real128", "1.00000E-0030", &
+            "pendulum")) > 0, "a real128 line for 1e-30")
+        call check(error, len(summary_line(result%out, "real128", "1.00000E-0006", &
+            "pendulum")) == 0, "no real128 line for 1e-6")
         ! Systems without rows and precisions without rows are left out.
         call check(error, len(summary_line(result%out, "real128", "1.00000E-0010", &
             "linkage")) == 0, "no linkage lines")
         call check(error, .not. has_line(result%out, "## real64"), "no real64 section")
         if (allocated(error)) return
 
-        ! A real64 row (bench64.csv) adds its section, against the table's double column.
+        ! A real64 row (bench64.csv) adds its section, with the targets 1e-6 .. 1e-14.
         call write_rows(dir // "/bench64.csv", [make_row("pendulum", "holosym", "real64", 4, &
                         0.5_wp, 1.0e-11_wp, 1.0e-4_real64, 0)])
         call summarize(error, dir, result)
         line = summary_line(result%out, "real64", "1.00000E-0010", "pendulum")
         call check(error, cell(line, 3) == "(4,3,5) h=0.5000", "real64 line: " // line)
-        write (expected, '(es9.2)') competitor_pendulum_1e10_double
-        call check(error, cell(line, 7) == trim(adjustl(expected)), "double column: " // line)
+        line = summary_line(result%out, "real64", "1.00000E-0006", "pendulum")
+        call check(error, cell(line, 3) == "(4,3,5) h=0.5000", "real64 1e-6: " // line)
+        call check(error, cell(line, 8) == "—", "no real64 heyoka row: " // line)
         line = summary_line(result%out, "real128", "1.00000E-0010", "pendulum")
         call check(error, cell(line, 3) == "(6,5,7) h=1.000", "real128 line unchanged: " // line)
+        call check(error, file_exists(dir // "/performance.md"), "performance.md written")
     end subroutine test_summary_cheapest
 
     !> The per-step table: seconds per step and the ratio to the plain path (option set 0)
@@ -477,11 +528,10 @@ contains
             if (index(result%out(i)%text, "| (2,1,3) real128 |") /= 1) cycle
             found = found + 1
             if (found == 2) then
-                write (expected, '(f10.1)') 0.8_real64 / 0.1_real64
-                call check(error, cell(result%out(i)%text, 4) == trim(adjustl(expected)), &
-                    "x plain of option set 9: " // result%out(i)%text)
-                write (expected, '(f10.1)') 400.0_real64 / steps(3)%steps
-                call check(error, cell(result%out(i)%text, 5) == trim(adjustl(expected)), &
+                call check(error, cell(result%out(i)%text, 4) == ratio_expected(0.8_real64 / &
+                    0.1_real64), "x plain of option set 9: " // result%out(i)%text)
+                call check(error, cell(result%out(i)%text, 5) == ratio_expected(400.0_real64 / &
+                    steps(3)%steps), &
                     "Newton iterations per step: " // result%out(i)%text)
             end if
         end do
@@ -526,7 +576,7 @@ contains
         allocate (rows(0))
         do i = 2, size(csv)
             call parse_row(csv(i)%text, row, ok)
-            call check(error, ok, "row " // int_str(i - 1) // " has 21 valid fields: " // &
+            call check(error, ok, "row " // int_str(i - 1) // " has 23 valid fields: " // &
                 csv(i)%text)
             call check(error, mantissa_digits(split_field(csv(i)%text, 8, ",")) >= 33 .and. &
                 mantissa_digits(split_field(csv(i)%text, 10, ",")) >= 33, "row " // &
@@ -576,7 +626,7 @@ contains
             "summary.md has the lines printed: " // int_str(size(summary)) // " and " // &
             int_str(size(result%out)))
         call check(error, len(summary_line(summary, trim(merge("real64 ", "real128", &
-            wp_is_double)), "1.00000E-0006", "pendulum")) > 0, "a line for 1e-6, pendulum")
+            wp_is_double)), "1.00000E-0010", "pendulum")) > 0, "a line for 1e-10, pendulum")
         if (allocated(error)) return
 
         ! --summarize rebuilds the same summary from the CSV files.
@@ -610,5 +660,120 @@ contains
         end function count_prefix
 
     end subroutine test_command_end_to_end
+
+    !> `bench --scaling --quick`: one CSV line per (K, path), K = 1, 2, 4, 8 on the reduced
+    !! step and K <= 4 on the general path, with sane sizes, times and memory; the
+    !! performance page gets its scaling section; a bad --scaling-point is refused.
+    subroutine test_scaling_quick(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: csv(:), page(:)
+        character(len=:), allocatable :: dir, name, line
+        integer :: i, ios, links, n, m, steps, status, reduced, general
+        real(wp) :: seconds, memory
+        dir = fresh_dir("bench_scaling")
+        call run_holosym(words("bench", "--scaling", "--quick", "--out", dir), result)
+        call check(error, len(result%failure) == 0 .and. result%exit_code == 0, &
+            "bench --scaling --quick exits 0, got " // int_str(result%exit_code))
+        if (allocated(error)) return
+        name = dir // "/" // trim(merge("scaling64.csv", "scaling.csv  ", wp_is_double))
+        call read_lines(name, csv, ios)
+        call check(error, ios == 0 .and. size(csv) == 8, "read " // name // ": " // &
+            int_str(size(csv)) // " lines, expected 8")
+        if (allocated(error)) return
+        call check(error, csv(1)%text == "precision,path,links,n,m,steps,seconds_per_step," // &
+            "max_rss_kb,status", "scaling header: " // csv(1)%text)
+        reduced = 0
+        general = 0
+        do i = 2, size(csv)
+            line = csv(i)%text
+            call check(error, split_field(line, 1, ",") == trim(merge("real64 ", "real128", &
+                wp_is_double)), "precision of " // line)
+            if (split_field(line, 2, ",") == "reduced") reduced = reduced + 1
+            if (split_field(line, 2, ",") == "general") general = general + 1
+            call read_field(line, 3, links, ios)
+            if (ios == 0) call read_field(line, 4, n, ios)
+            if (ios == 0) call read_field(line, 5, m, ios)
+            if (ios == 0) call read_field(line, 6, steps, ios)
+            if (ios == 0) call read_field(line, 7, seconds, ios)
+            if (ios == 0) call read_field(line, 8, memory, ios)
+            if (ios == 0) call read_field(line, 9, status, ios)
+            call check(error, ios == 0, "fields of " // line)
+            if (allocated(error)) return
+            call check(error, n == 2 * links .and. m == links, "n = 2K, m = K: " // line)
+            call check(error, status == 0 .and. steps >= 1, "status 0, steps: " // line)
+            call check(error, seconds > 0 .and. seconds < 1, "seconds per step: " // line)
+            call check(error, memory > 1000 .and. memory < 1.0e7_wp, "peak kB: " // line)
+            if (allocated(error)) return
+        end do
+        call check(error, reduced == 4 .and. general == 3, int_str(reduced) // " reduced, " // &
+            int_str(general) // " general lines, expected 4 and 3")
+        call read_lines(dir // "/performance.md", page, ios)
+        call check(error, ios == 0 .and. has_line(page, "## Scaling: a chain of K planar pendula"), &
+            "performance.md has the scaling section")
+        call run_holosym(words("bench", "--scaling-point", "0"), result)
+        call check(error, result%exit_code /= 0, "--scaling-point 0 is refused")
+    end subroutine test_scaling_quick
+
+    !> `bench --long --quick` (holosym only, no heyoka): the reference file, and for each
+    !! case and configuration the cheapest runs reaching 1e-20 and 1e-24, with the
+    !! constraints at round-off over the whole run; the real64 build refuses --long.
+    subroutine test_long_quick(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: csv(:), refs(:), page(:)
+        character(len=:), allocatable :: dir, line
+        integer :: i, ios, rows, status
+        real(wp) :: run_error, max_phi, energy_error
+        dir = fresh_dir("bench_long")
+        call run_holosym(words("bench", "--long", "--quick", "--out", dir), result)
+        call check(error, len(result%failure) == 0, result%failure)
+        if (wp_is_double) then
+            call check(error, result%exit_code == exit_failure .and. &
+                any_err(result, "real128"), "the real64 build refuses --long")
+            return
+        end if
+        call check(error, result%exit_code == 0, "bench --long --quick exits 0, got " // &
+            int_str(result%exit_code))
+        if (allocated(error)) return
+        call read_lines(dir // "/long.csv", csv, ios)
+        call check(error, ios == 0 .and. size(csv) >= 5, "long.csv: " // int_str(size(csv)) // &
+            " lines")
+        if (allocated(error)) return
+        call check(error, csv(1)%text == "system,method,precision,span,config,tolerance," // &
+            "steps,error,max_phi,max_hidden,energy_error,seconds,compile_seconds,status", &
+            "long header: " // csv(1)%text)
+        rows = 0
+        do i = 2, size(csv)
+            line = csv(i)%text
+            call check(error, split_field(line, 2, ",") == "holosym", "method of " // line)
+            call read_field(line, 8, run_error, ios)
+            if (ios == 0) call read_field(line, 9, max_phi, ios)
+            if (ios == 0) call read_field(line, 11, energy_error, ios)
+            if (ios == 0) call read_field(line, 14, status, ios)
+            call check(error, ios == 0, "fields of " // line)
+            if (allocated(error)) return
+            call check(error, status == 0 .and. run_error <= 1.0e-20_wp, "error at T: " // line)
+            call check(error, max_phi <= 1.0e-30_wp, "whole-run max |phi|: " // line)
+            call check(error, energy_error < 1.0e-18_wp, "energy error: " // line)
+            rows = rows + 1
+        end do
+        call check(error, rows >= 4, int_str(rows) // " holosym rows")
+        call read_lines(dir // "/long_reference.csv", refs, ios)
+        call check(error, ios == 0 .and. size(refs) > 4, "long_reference.csv written")
+        call read_lines(dir // "/performance.md", page, ios)
+        call check(error, ios == 0 .and. has_line(page, "## Long runs"), &
+            "performance.md has the long-run section")
+    contains
+        logical function any_err(outcome, text)
+            type(command_result_t), intent(in) :: outcome
+            character(len=*), intent(in) :: text
+            integer :: k
+            any_err = .false.
+            do k = 1, size(outcome%err)
+                if (index(outcome%err(k)%text, text) > 0) any_err = .true.
+            end do
+        end function any_err
+    end subroutine test_long_quick
 
 end module test_bench

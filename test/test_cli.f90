@@ -43,6 +43,7 @@ contains
             new_test("rejects_malformed_number", test_rejects_malformed_number), &
             new_test("rejects_out_of_range", test_rejects_out_of_range), &
             new_test("rejects_unknown_system", test_rejects_unknown_system), &
+            new_test("chain_links", test_chain_links), &
             new_test("csv_header", test_csv_header), &
             new_test("dispatcher_exit_codes", test_dispatcher_exit_codes), &
             new_test("simulate_rows", test_simulate_rows), &
@@ -440,6 +441,32 @@ contains
         call expect_rejection(error, "--system Pendulum", &
             [character(len=9) :: "--system", "Pendulum"])
     end subroutine test_rejects_unknown_system
+
+    !> The chain of K pendula: --links sets K (n = 2K, m = K), in 1..100000, only with
+    !! --system chain; a short run keeps the constraints.
+    subroutine test_chain_links(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        call simulate(error, "--system chain --links 3 --steps 0", result)
+        call check(error, size(result%out) >= 1, "a chain header")
+        if (allocated(error)) return
+        call check(error, result%out(1)%text == "t,q1,q2,q3,q4,q5,q6,p1,p2,p3,p4,p5,p6," // &
+            "lambda1,lambda2,lambda3,H,energy_error,constraint_residual,velocity_residual," // &
+            "newton_iterations", "header n = 6, m = 3: " // result%out(1)%text)
+        call simulate(error, "--system chain --links 2 --M 4 --h 0.01 --steps 3", result)
+        call check(error, result%exit_code == 0 .and. size(result%out) == 5, &
+            "three steps of the double pendulum: exit " // int_str(result%exit_code))
+        call simulate(error, "--system chain --steps 0", result)
+        call check(error, index(result%out(1)%text, "q16,p1,") > 0, "default K = 8")
+        call expect_rejection(error, "--system chain --links 0", &
+            [character(len=8) :: "--links", "0"])
+        call expect_rejection(error, "--system chain --links 100001", &
+            [character(len=8) :: "--links", "100001"])
+        call expect_rejection(error, "--system chain --links two", &
+            [character(len=8) :: "--links", "two"])
+        call expect_rejection(error, "--system planar --links 3", &
+            [character(len=14) :: "--links", "--system chain"])
+    end subroutine test_chain_links
 
     ! ------------------------------------------------------------------ output and runs
 

@@ -23,7 +23,7 @@ module test_errors
     !> Step size of the error tests (the paper's h = 1/8 for the pendulum).
     real(wp), parameter :: step_size = 0.125_wp
     !> A barely-off-manifold offset: 1e5 times the manifold tolerance 1024 eps in both kinds
-    !! (1.9e-26 in real128, below the former 1e-25; 2.2e-8 in real64).
+    !! (1.9e-26 in real128, 2.2e-8 in real64).
     real(wp), parameter :: barely_off = 1.0e8_wp * eps
 
     !> Faults of `faulty_pendulum`.

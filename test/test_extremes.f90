@@ -44,11 +44,10 @@ module test_extremes
     !> A measured order agrees with the law 2M within this distance (as the tables command).
     real(wp), parameter :: order_agreement = 0.3_wp
     !> Largest decimal exponent e of the randomized off-manifold offsets 10**(-e): the offset
-    !! must stay 1e5 times above the manifold tolerance 1024 eps (20 in real128 as before,
-    !! 7 in real64, where 1e-20 would be far below round-off).
-    integer, parameter :: max_offset_exponent = &
-        min(20, int(-log10(1.0e5_wp * 1024 * epsilon(1.0_wp))))
-    !> Cases of the randomized test (at least 10,000).
+    !! must stay 1e5 times above the manifold tolerance 1024 eps, about 10**(8 - precision)
+    !! (20 in real128, 7 in real64, where 1e-20 would be far below round-off).
+    integer, parameter :: max_offset_exponent = min(20, precision(1.0_wp) - 8)
+    !> Cases of the randomized test.
     integer, parameter :: random_cases = 10000
     !> Every status code the library documents (holosym_status).
     integer, parameter :: documented_codes(*) = [HOLOSYM_INVALID_ORDER, &

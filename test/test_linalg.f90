@@ -16,9 +16,9 @@ module test_linalg
     !> Bound on the normwise relative residual ||Ax - b|| / (||A|| ||x||) (about 1e-30).
     real(wp), parameter :: residual_tolerance = 4096 * eps
     !> Largest order of the real64 random systems: beyond both of `lu_factor_dp`'s
-    !! switches (dgetf2 -> dgetrf at 32, substitution loops -> dtrsv at 64).
+    !! switches (own loops -> dgetrf at 32, substitution loops -> dtrsv at 64).
     integer, parameter :: max_order_dp = 80
-    !> Orders of the concurrency test: dgetf2 and dgetrf, then dtrsv (one right-hand side)
+    !> Orders of the concurrency test: own loops and dgetrf, then dtrsv (one right-hand side)
     !! and dgetrs (several) above the substitution loops' range.
     integer, parameter :: concurrent_orders(3) = [20, 72, 96]
     !> Right-hand sides of the concurrency test, solved one by one and all at once.

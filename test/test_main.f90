@@ -22,6 +22,7 @@ program holosym_tests
     use test_harness, only: harness_tests
     use test_api, only: api_tests
     use test_reduced, only: reduced_tests
+    use test_ensemble, only: ensemble_tests
     use test_models, only: models_tests
     use test_observers, only: observers_tests
     use test_figures, only: figures_tests
@@ -57,6 +58,7 @@ program holosym_tests
     call run_suite("extremes", extremes_cli_tests(), filter, passed, failed, skipped)
     call run_suite("bench", bench_tests(), filter, passed, failed, skipped)
     call run_suite("reduced", reduced_tests(), filter, passed, failed, skipped)
+    call run_suite("ensemble", ensemble_tests(), filter, passed, failed, skipped)
     call run_suite("models", models_tests(), filter, passed, failed, skipped)
     call run_suite("observers", observers_tests(), filter, passed, failed, skipped)
     call run_suite("figures", figures_tests(), filter, passed, failed, skipped)

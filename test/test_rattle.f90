@@ -1,5 +1,6 @@
 !> Tests of the competitor inside holosym: RATTLE and its symmetric compositions
-!! (coefficients, orders 2-8, constraints at round-off, general = separable path).
+!! (coefficients and their order conditions, orders 2-10 observed, constraints at
+!! round-off, general = separable path).
 module test_rattle
     use holosym_kinds, only: wp
     use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
@@ -9,6 +10,8 @@ module test_rattle
     use holosym_manifold, only: manifold_residuals
     use holosym_models, only: spherical_pendulum, spring_linkage
     use holosym_rattle, only: rattle_integrator, composition_coefficients
+    use holosym_compositions, only: composition_order_residuals, published_coefficients, &
+        composition_families, composition_orders
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
@@ -33,7 +36,10 @@ contains
             new_test("constraints_each_step_linkage", constraints_linkage), &
             new_test("general_equals_separable", general_equals_separable), &
             new_test("order_2_4_6_triple_jump", orders_triple_jump), &
-            new_test("order_4_6_8_suzuki", orders_suzuki) &
+            new_test("order_4_6_8_suzuki", orders_suzuki), &
+            new_test("order_conditions_closed_forms", conditions_closed_forms), &
+            new_test("order_conditions_published_refined", conditions_published), &
+            new_test("order_6_8_10_gni_compositions", orders_gni) &
         ]
     end function rattle_tests
 
@@ -41,27 +47,112 @@ contains
         type(test_error_t), allocatable, intent(out) :: error
         real(wp), allocatable :: gammas(:)
         type(holosym_status_t) :: status
-        integer :: order, k, expected
+        integer :: f, o, k
+        integer, allocatable :: orders(:)
+        do f = 1, size(composition_families)
+            orders = composition_orders(trim(composition_families(f)))
+            call check(error, size(orders) > 0, "no orders for " // composition_families(f))
+            do o = 1, size(orders)
+                call composition_coefficients(orders(o), trim(composition_families(f)), &
+                                              gammas, status)
+                call check_status_code(error, status%code, HOLOSYM_SUCCESS, &
+                    trim(composition_families(f)) // " order " // int_str(orders(o)))
+                if (allocated(error)) return
+                call check(error, abs(sum(gammas) - 1) <= 100 * epsilon(1.0_wp), &
+                    trim(composition_families(f)) // ": fractions sum to " // &
+                    real_str(sum(gammas)))
+                do k = 1, size(gammas)
+                    call check(error, gammas(k) == gammas(size(gammas) + 1 - k), &
+                        trim(composition_families(f)) // ": composition not symmetric")
+                end do
+                if (allocated(error)) return
+            end do
+        end do
+        ! Stage counts: 3^(p/2-1), 5^(p/2-1) and the published ones.
+        call composition_coefficients(10, "triple-jump", gammas, status)
+        call check(error, size(gammas) == 81, "triple-jump 10: " // int_str(size(gammas)))
+        call composition_coefficients(10, "suzuki", gammas, status)
+        call check(error, size(gammas) == 625, "suzuki 10: " // int_str(size(gammas)))
+        call composition_coefficients(8, "suzuki-umeno", gammas, status)
+        call check(error, size(gammas) == 15, "suzuki-umeno 8: " // int_str(size(gammas)))
+        call composition_coefficients(8, "kahan-li", gammas, status)
+        call check(error, size(gammas) == 17, "kahan-li 8: " // int_str(size(gammas)))
+        call composition_coefficients(10, "hlw", gammas, status)
+        call check(error, size(gammas) == 33, "hlw 10: " // int_str(size(gammas)))
+        call composition_coefficients(10, "sofroniou-spaletta", gammas, status)
+        call check(error, size(gammas) == 33, "sofroniou-spaletta 10: " // int_str(size(gammas)))
+    end subroutine coefficients
+
+    !> The order conditions hold to round-off for the closed-form compositions of each
+    !! order, and fail for the next order (they test what they claim), with the counts
+    !! 1, 2, 4, 8, 16 of conditions.
+    subroutine conditions_closed_forms(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        real(wp), allocatable :: gammas(:), residuals(:)
+        type(holosym_status_t) :: status
+        integer, parameter :: counts(5) = [1, 2, 4, 8, 16]
+        integer :: order, f
         character(len=11) :: family
-        integer :: f
         do f = 1, 2
             family = merge("triple-jump", "suzuki     ", f == 1)
             do order = 2, 10, 2
                 call composition_coefficients(order, trim(family), gammas, status)
-                call check_status_code(error, status%code, HOLOSYM_SUCCESS, trim(family))
+                residuals = composition_order_residuals(gammas, order)
+                call check(error, size(residuals) == counts(order / 2), "order " // &
+                    int_str(order) // ": " // int_str(size(residuals)) // " conditions")
+                call check(error, maxval(abs(residuals)) <= 1.0e6_wp * epsilon(1.0_wp), &
+                    trim(family) // " order " // int_str(order) // ": residual " // &
+                    real_str(maxval(abs(residuals))))
+                ! The next order's residuals are small for Suzuki's: only real128 tells.
+                if (order < 10 .and. epsilon(1.0_wp) < 1.0e-20_wp) then
+                    residuals = composition_order_residuals(gammas, order + 2)
+                    call check(error, maxval(abs(residuals)) > 1.0e-12_wp, trim(family) // &
+                        " order " // int_str(order) // " passes the conditions of order " // &
+                        int_str(order + 2))
+                end if
                 if (allocated(error)) return
-                expected = merge(3, 5, f == 1)**(order / 2 - 1)
-                call check(error, size(gammas) == expected, trim(family) // " order " // &
-                    int_str(order) // ": " // int_str(size(gammas)) // " stages")
-                call check(error, abs(sum(gammas) - 1) <= 100 * epsilon(1.0_wp), &
-                    trim(family) // ": fractions sum to " // real_str(sum(gammas)))
-                do k = 1, size(gammas)
-                    call check(error, gammas(k) == gammas(size(gammas) + 1 - k), &
-                        trim(family) // ": composition not symmetric")
-                end do
             end do
         end do
-    end subroutine coefficients
+    end subroutine conditions_closed_forms
+
+    !> The published digits satisfy the order conditions to their own accuracy (about
+    !! 1e-26); the refined coefficients to round-off (a few 1e-33 in real128).
+    subroutine conditions_published(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(len=18), parameter :: families(6) = [character(len=18) :: "yoshida", &
+            "kahan-li", "kahan-li", "suzuki-umeno", "hlw", "sofroniou-spaletta"]
+        integer, parameter :: orders(6) = [6, 6, 8, 8, 10, 10]
+        real(wp), allocatable :: gammas(:), half(:), residuals(:)
+        type(holosym_status_t) :: status
+        real(wp) :: published, refined, change
+        integer :: f, k, s
+        do f = 1, size(families)
+            half = published_coefficients(orders(f), trim(families(f)))
+            s = 2 * size(half) - 1
+            allocate (gammas(s))
+            do k = 1, s
+                gammas(k) = half(min(k, s + 1 - k))
+            end do
+            published = maxval(abs(composition_order_residuals(gammas, orders(f))))
+            deallocate (gammas)
+            call composition_coefficients(orders(f), trim(families(f)), gammas, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, families(f))
+            if (allocated(error)) return
+            residuals = composition_order_residuals(gammas, orders(f))
+            refined = maxval(abs(residuals))
+            change = maxval(abs(gammas(1:size(half)) - half))
+            call check(error, published <= max(1.0e-24_wp, 1.0e3_wp * epsilon(1.0_wp)), &
+                trim(families(f)) // ": published digits miss the conditions by " // &
+                real_str(published))
+            call check(error, refined <= 64 * epsilon(1.0_wp), trim(families(f)) // &
+                ": refined coefficients miss the conditions by " // real_str(refined))
+            call check(error, change <= max(1.0e-24_wp, 1.0e3_wp * epsilon(1.0_wp)), &
+                trim(families(f)) // ": refinement moved the coefficients by " // &
+                real_str(change))
+            if (allocated(error)) return
+            deallocate (gammas)
+        end do
+    end subroutine conditions_published
 
     subroutine invalid_arguments(error)
         type(test_error_t), allocatable, intent(out) :: error
@@ -78,8 +169,11 @@ contains
         call rattle%init(sys, 12, "suzuki", status)
         call check_status_code(error, status%code, HOLOSYM_INVALID_ORDER, "order 12")
         call rattle%init(sys, 4, "yoshida", status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_ORDER, "yoshida order 4")
+        call check(error, index(status%message, "6") > 0, "message names the orders")
+        call rattle%init(sys, 4, "verlet", status)
         call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "unknown family")
-        call check(error, index(status%message, "yoshida") > 0, "message names the family")
+        call check(error, index(status%message, "verlet") > 0, "message names the family")
     end subroutine invalid_arguments
 
     !> Run `steps` steps, checking both constraint levels after each.
@@ -213,5 +307,16 @@ contains
         call check_order(error, 6, "suzuki", 0.25_wp)
         call check_order(error, 8, "suzuki", 0.5_wp)
     end subroutine orders_suzuki
+
+    subroutine orders_gni(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        if (epsilon(1.0_wp) > 1.0e-20_wp) return  ! errors would sink into real64 round-off
+        call check_order(error, 6, "yoshida", 0.25_wp)
+        call check_order(error, 6, "kahan-li", 0.25_wp)
+        call check_order(error, 8, "kahan-li", 0.5_wp)
+        call check_order(error, 8, "suzuki-umeno", 0.5_wp)
+        call check_order(error, 10, "hlw", 0.5_wp)
+        call check_order(error, 10, "sofroniou-spaletta", 0.5_wp)
+    end subroutine orders_gni
 
 end module test_rattle

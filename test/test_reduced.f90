@@ -40,6 +40,17 @@ module test_reduced
         procedure :: constraint_sparsity => bad_pattern
     end type bad_pattern_chain
 
+    !> Anharmonic oscillators without constraints (m = 0): H = |p|^2/2 + |q|^2/2 + q_1^4/4.
+    type, extends(constrained_hamiltonian) :: free_oscillator
+    contains
+        procedure :: hamiltonian => oscillator_hamiltonian
+        procedure :: dh_dq => oscillator_dh_dq
+        procedure :: dh_dp => oscillator_dh_dp
+        procedure :: constraint => oscillator_constraint
+        procedure :: constraint_jacobian => oscillator_constraint_jacobian
+        procedure :: diagonal_mass => oscillator_mass
+    end type free_oscillator
+
     !> A spherical pendulum whose potential gradient turns NaN beyond z = threshold.
     type, extends(spherical_pendulum) :: nan_pendulum
         real(wp) :: threshold = huge(1.0_wp)
@@ -54,6 +65,7 @@ contains
         type(test_case_t), allocatable :: tests(:)
         tests = [ &
             new_test("agrees_with_general_scheme", agrees_with_general), &
+            new_test("no_constraints", no_constraints), &
             new_test("dense_output_and_multipliers_agree", dense_output_agrees), &
             new_test("sparse_and_dense_derivatives_agree", sparse_equals_dense), &
             new_test("band_independent_of_chain_length", band_independent), &
@@ -120,6 +132,20 @@ contains
         call both_paths(error, chain, q8, p8, 4, 3, 5, 0.01_wp, 20, "chain of 4 (4,3,5)")
         call both_paths(error, chain, q8, p8, 2, 1, 3, 0.05_wp, 20, "chain of 4 (2,1,3)")
     end subroutine agrees_with_general
+
+    !> Systems without constraints (m = 0), of one and two coordinates.
+    subroutine no_constraints(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(free_oscillator) :: sys
+        real(wp), parameter :: q0(2) = [1.0_wp, 0.5_wp], p0(2) = [0.0_wp, 0.3_wp]
+        integer :: n
+        do n = 1, 2
+            sys%n = n
+            sys%m = 0
+            call both_paths(error, sys, q0(1:n), p0(1:n), 3, 2, 4, 0.1_wp, 30, &
+                            "oscillator n = " // int_str(n))
+        end do
+    end subroutine no_constraints
 
     !> Dense output (q~, p~, lambda~ inside the last step) and the multipliers at the nodes
     !! are the same polynomials on both paths.
@@ -329,6 +355,49 @@ contains
         rows = [1, 2, 3]
         columns = [1, 3, self%n + 1]
     end subroutine bad_pattern
+
+    function oscillator_hamiltonian(self, q, p) result(energy)
+        class(free_oscillator), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp) :: energy
+        energy = sum(p**2) / 2 + sum(q**2) / 2 + q(1)**4 / 4
+    end function oscillator_hamiltonian
+
+    subroutine oscillator_dh_dq(self, q, p, gradient)
+        class(free_oscillator), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: gradient(:)
+        gradient = q
+        gradient(1) = gradient(1) + q(1)**3
+    end subroutine oscillator_dh_dq
+
+    subroutine oscillator_dh_dp(self, q, p, gradient)
+        class(free_oscillator), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: gradient(:)
+        gradient = p
+    end subroutine oscillator_dh_dp
+
+    subroutine oscillator_constraint(self, q, phi)
+        class(free_oscillator), intent(in) :: self
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: phi(:)
+        phi = 0
+    end subroutine oscillator_constraint
+
+    subroutine oscillator_constraint_jacobian(self, q, jacobian)
+        class(free_oscillator), intent(in) :: self
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: jacobian(:, :)
+        jacobian = 0
+    end subroutine oscillator_constraint_jacobian
+
+    logical function oscillator_mass(self, mass) result(declared)
+        class(free_oscillator), intent(in) :: self
+        real(wp), intent(out) :: mass(:)
+        mass = 1
+        declared = .true.
+    end function oscillator_mass
 
     subroutine nan_dh_dq(self, q, p, gradient)
         use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan

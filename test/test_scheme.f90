@@ -24,11 +24,6 @@ module test_scheme
     real(wp), parameter :: eps = epsilon(1.0_wp)
     !> Residual accepted at a converged solution (about 1e-30).
     real(wp), parameter :: solution_tolerance = 4096 * eps
-    !> Relative step of the central differences: eps**(1/3) (about 6e-12 in real128).
-    real(wp), parameter :: fd_step = eps**(1.0_wp / 3)
-    !> Agreement required between the Jacobian and central differences (about 3e-19):
-    !! both carry errors of order eps**(2/3) (about 3e-23), so this leaves a wide margin.
-    real(wp), parameter :: fd_tolerance = 1.0e4_wp * eps**(2.0_wp / 3)
 
     !> A particle in the plane under a constant force, held on the line q_2 = 0:
     !! H = |p|^2/2 + f_1 q_1 + f_2 q_2, phi = q_2. Its exact motion is polynomial
@@ -56,6 +51,19 @@ module test_scheme
     end interface
 
 contains
+
+    ! Functions, not named constants: not every compiler folds real128 powers.
+
+    !> Relative step of the central differences: eps**(1/3) (about 6e-12 in real128).
+    pure real(wp) function fd_step()
+        fd_step = eps**(1.0_wp / 3)
+    end function fd_step
+
+    !> Agreement required between the Jacobian and central differences (about 3e-19):
+    !! both carry errors of order eps**(2/3) (about 3e-23), so this leaves a wide margin.
+    pure real(wp) function fd_tolerance()
+        fd_tolerance = 1.0e4_wp * eps**(2.0_wp / 3)
+    end function fd_tolerance
 
     !> The tests of this suite.
     function scheme_tests() result(tests)
@@ -250,7 +258,7 @@ contains
 
     ! ------------------------------------------------------------------ counting
 
-    !> For M = 1..8, N = 0..8 and (n, m) of both paper systems: the rows of method.md
+    !> For M = 1..8, N = 0..8 and (n, m) of both paper systems: the rows of docs/method.md
     !! section 3, counted block by block, equal the unknowns, unknown_count and nx; the
     !! residual fills all nx rows and the Jacobian all nx x nx entries.
     subroutine equation_count_grid(error)
@@ -462,8 +470,8 @@ contains
         if (allocated(error)) return
         do j = 1, nx
             xs = x
-            upper = x(j) + fd_step * max(1.0_wp, abs(x(j)))
-            lower = x(j) - fd_step * max(1.0_wp, abs(x(j)))
+            upper = x(j) + fd_step() * max(1.0_wp, abs(x(j)))
+            lower = x(j) - fd_step() * max(1.0_wp, abs(x(j)))
             xs(j) = upper
             call scheme%residual(xs, fp, status)
             call check_status_code(error, status%code, HOLOSYM_SUCCESS, where // ": residual")
@@ -477,7 +485,7 @@ contains
             row_scale = max(maxval(abs(jac(i, :))), maxval(abs(fd(i, :))))
             call check(error, row_scale > 0, where // ": row " // int_str(i) // " is zero")
             if (allocated(error)) return
-            call check(error, maxval(abs(jac(i, :) - fd(i, :))) <= fd_tolerance * row_scale, &
+            call check(error, maxval(abs(jac(i, :) - fd(i, :))) <= fd_tolerance() * row_scale, &
                 where // ": Jacobian row " // int_str(i) // " of " // int_str(nx) // &
                 " differs from central differences by " // &
                 real_str(maxval(abs(jac(i, :) - fd(i, :))) / row_scale) // " (relative)")

@@ -1,9 +1,14 @@
 #!/usr/bin/env python3
-"""Work-precision plot of `holosym bench`: error at T against CPU seconds, one panel per
-system, the cheapest run of each method per error level joined into a front.
+"""Plots of `holosym bench`, from the CSV files of one benchmark directory.
 
-Usage: python3 tools/plot_bench.py DIR   (reads DIR/bench.csv and DIR/bench64.csv,
-writes DIR/work_precision.png). Needs matplotlib (make bench installs it with pip).
+- DIR/work_precision.png: error at T against CPU seconds, one panel per system; for each
+  of holosym, RATTLE composed inside holosym (all of GNI_COMP's compositions together)
+  and heyoka (index-1 form), the cheapest runs joined into a front, real128 solid and
+  real64 dotted (bench.csv, bench64.csv, heyoka.csv, heyoka64.csv).
+- DIR/scaling.png: cost per step and peak memory of the chain of K pendula against K,
+  reduced step and general path, real128 and real64 (scaling.csv, scaling64.csv).
+
+Usage: python3 tools/plot_bench.py DIR (make bench runs it in its virtual environment).
 """
 import csv
 import os
@@ -14,85 +19,123 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-# The competitor's table from the issue (GNI_COMP, cheapest configuration per target).
-TABLE_TARGETS = [1e-10, 1e-14, 1e-18, 1e-22, 1e-26]
-TABLE = {
-    ("pendulum", "real128"): [1.6e-3, 4.9e-3, 0.010, 0.040, 0.083],
-    ("linkage", "real128"): [0.024, 0.075, 0.16, 0.31, 1.5],
-    ("planar", "real128"): [0.013, 0.050, 0.10, 0.20, 0.79],
-    ("pendulum", "real64"): [3.7e-5, 1.3e-4, None, None, None],
-    ("linkage", "real64"): [5.9e-4, 1.8e-3, None, None, None],
-    ("planar", "real64"): [4.0e-4, 1.8e-3, None, None, None],
-}
 SYSTEMS = [("pendulum", "spherical pendulum, T = 10"), ("linkage", "spring-linkage, T = 10"),
            ("planar", "planar pendulum, T = 100")]
+FAMILIES = [("holosym", "holosym", "C0", "o"), ("rattle", "RATTLE compositions (in holosym)",
+                                                 "C1", "s"),
+            ("heyoka", "heyoka (index-1)", "C2", "^")]
 
 
-def read_rows(directory):
-    rows = []
-    for name in ("bench.csv", "bench64.csv"):
-        path = os.path.join(directory, name)
-        if not os.path.exists(path):
-            continue
-        with open(path, newline="") as handle:
-            for row in csv.DictReader(handle):
-                if int(row["status"]) != 0:
-                    continue
-                row["error"] = float(row["error"])
-                row["seconds"] = float(row["seconds"])
-                rows.append(row)
-    return rows
+def read_csv(path):
+    if not os.path.exists(path):
+        return []
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
 
 
 def front(points):
     """Pareto front: runs that no cheaper run beats in error."""
-    points = sorted(points)
     result, best = [], float("inf")
-    for seconds, error in points:
+    for seconds, error in sorted(points):
         if error < best:
             result.append((seconds, error))
             best = error
     return result
 
 
+def family(method):
+    if method == "holosym":
+        return "holosym"
+    if method.startswith("rattle-"):
+        return "rattle"
+    if method == "heyoka":
+        return "heyoka"
+    return None
+
+
+def work_precision(directory):
+    rows = []
+    for name in ("bench.csv", "bench64.csv", "heyoka.csv", "heyoka64.csv"):
+        for row in read_csv(os.path.join(directory, name)):
+            if int(row["status"]) != 0 or float(row["seconds"]) <= 0:
+                continue
+            rows.append(row)
+    if not rows:
+        return None
+    figure, axes = plt.subplots(1, 3, figsize=(16, 5.5))
+    for axis, (system, title) in zip(axes, SYSTEMS):
+        for precision, line in (("real128", "-"), ("real64", ":")):
+            for key, label, colour, marker in FAMILIES:
+                points = [(float(r["seconds"]), max(float(r["error"]), 1e-36)) for r in rows
+                          if r["system"] == system and family(r["method"]) == key
+                          and r["precision"] == precision]
+                if not points:
+                    continue
+                curve = front(points)
+                axis.loglog([p[0] for p in curve], [p[1] for p in curve], line, color=colour,
+                            marker=marker, markersize=4, label="%s, %s" % (label, precision))
+        axis.set_title(title)
+        axis.set_xlabel("CPU seconds (one core; heyoka without compile time)")
+        axis.set_ylabel("global error at T")
+        axis.grid(True, which="major", alpha=0.3)
+        axis.legend(fontsize=7)
+    figure.suptitle("Work-precision, cheapest runs per method, measured in one run "
+                    "(lower left is better)")
+    figure.tight_layout()
+    output = os.path.join(directory, "work_precision.png")
+    figure.savefig(output, dpi=110)
+    return output
+
+
+def scaling(directory):
+    rows = read_csv(os.path.join(directory, "scaling.csv")) + \
+        read_csv(os.path.join(directory, "scaling64.csv"))
+    rows = [r for r in rows if int(r["status"]) == 0 and float(r["seconds_per_step"]) > 0]
+    if not rows:
+        return None
+    figure, (cost, memory) = plt.subplots(1, 2, figsize=(13, 5))
+    styles = {("reduced", "real128"): ("C0", "-o"), ("reduced", "real64"): ("C0", ":o"),
+              ("general", "real128"): ("C3", "-s"), ("general", "real64"): ("C3", ":s")}
+    for (path, precision), (colour, style) in styles.items():
+        points = sorted((int(r["links"]), float(r["seconds_per_step"]),
+                         float(r["max_rss_kb"]) / 1024) for r in rows
+                        if r["path"] == path and r["precision"] == precision)
+        if not points:
+            continue
+        label = "%s path, %s" % (path, precision)
+        cost.loglog([p[0] for p in points], [p[1] for p in points], style, color=colour,
+                    markersize=4, label=label)
+        memory.loglog([p[0] for p in points], [p[2] for p in points], style, color=colour,
+                      markersize=4, label=label)
+    reduced = sorted((int(r["links"]), float(r["seconds_per_step"])) for r in rows
+                     if r["path"] == "reduced" and r["precision"] == "real128")
+    if reduced:
+        k0, t0 = reduced[-1]
+        ks = [k for k, _ in reduced]
+        cost.loglog(ks, [t0 * k / k0 for k in ks], "k--", linewidth=0.8, label="slope 1")
+    cost.set_xlabel("links K (n = 2K, m = K)")
+    cost.set_ylabel("CPU seconds per step, (M, N, G) = (4, 3, 5), h = 0.01")
+    memory.set_xlabel("links K")
+    memory.set_ylabel("peak resident memory of the process [MB]")
+    for axis in (cost, memory):
+        axis.grid(True, which="major", alpha=0.3)
+        axis.legend(fontsize=8)
+    figure.suptitle("Chain of K planar pendula: cost per step and memory against K")
+    figure.tight_layout()
+    output = os.path.join(directory, "scaling.png")
+    figure.savefig(output, dpi=110)
+    return output
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit("usage: plot_bench.py DIR")
     directory = sys.argv[1]
-    rows = read_rows(directory)
-    if not rows:
-        sys.exit("plot_bench.py: no rows in %s/bench.csv" % directory)
-    figure, axes = plt.subplots(1, 3, figsize=(16, 5.5))
-    styles = {"holosym": ("C0", "o"), "rattle-triple-jump": ("C1", "s"),
-              "rattle-suzuki": ("C2", "^")}
-    for axis, (system, title) in zip(axes, SYSTEMS):
-        for precision, line in (("real128", "-"), ("real64", ":")):
-            for method, (colour, marker) in styles.items():
-                points = [(r["seconds"], max(r["error"], 1e-36)) for r in rows
-                          if r["system"] == system and r["method"] == method
-                          and r["precision"] == precision and r["seconds"] > 0]
-                if not points:
-                    continue
-                curve = front(points)
-                label = "%s (%s)" % (method, precision)
-                axis.loglog([p[0] for p in curve], [p[1] for p in curve], line,
-                            color=colour, marker=marker, markersize=4, label=label)
-            table = TABLE.get((system, precision))
-            if table:
-                xs = [t for t in table if t is not None]
-                ys = [e for e, t in zip(TABLE_TARGETS, table) if t is not None]
-                axis.loglog(xs, ys, line, color="k", marker="x",
-                            label="GNI_COMP table (%s)" % precision)
-        axis.set_title(title)
-        axis.set_xlabel("CPU seconds (one core)")
-        axis.set_ylabel("global error at T")
-        axis.grid(True, which="major", alpha=0.3)
-        axis.legend(fontsize=7)
-    figure.suptitle("holosym work-precision: cheapest runs per method (lower left is better)")
-    figure.tight_layout()
-    output = os.path.join(directory, "work_precision.png")
-    figure.savefig(output, dpi=110)
-    print("plot_bench.py: wrote " + output)
+    written = [p for p in (work_precision(directory), scaling(directory)) if p]
+    if not written:
+        sys.exit("plot_bench.py: no bench or scaling rows in %s" % directory)
+    for path in written:
+        print("plot_bench.py: wrote " + path)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-!> The competitor: RATTLE (second order, symmetric, symplectic, both constraint levels
+!> category: internal module (use holosym)
+!! The competitor: RATTLE (second order, symmetric, symplectic, both constraint levels
 !! at the step ends) for the same problem interface, raised to orders 4, 6, 8 and 10 by
 !! symmetric composition, as in Hairer's GNI_COMP.
 !!
@@ -16,11 +17,14 @@
 !! uses exact second derivatives from the system's `hessian`/`constraint_hessian`
 !! bindings and runs to the working-precision tolerance.
 !!
-!! Compositions (coefficients from closed forms, exact to working precision):
+!! Compositions (holosym_compositions, coefficients exact to working precision):
 !! - 'triple-jump': Psi_{p+2}(h) = Psi_p(g1 h) Psi_p(g2 h) Psi_p(g1 h),
 !!   g1 = 1/(2 - 2^(1/(p+1))), g2 = 1 - 2 g1; 3^(p/2-1) RATTLE steps for order p.
 !! - 'suzuki': Psi_{p+2}(h) = Psi_p(g1 h)^2 Psi_p(g3 h) Psi_p(g1 h)^2,
 !!   g1 = 1/(4 - 4^(1/(p+1))), g3 = 1 - 4 g1; 5^(p/2-1) steps, smaller error constants.
+!! - GNI_COMP's optimised compositions: 'yoshida' (order 6, 7 steps), 'kahan-li'
+!!   (6: 9 steps, 8: 17), 'suzuki-umeno' (8: 15), 'hlw' (10: 33), 'sofroniou-spaletta'
+!!   (10: 33), far more efficient than the fractal constructions at orders 8 and 10.
 module holosym_rattle
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
@@ -31,6 +35,7 @@ module holosym_rattle
         HOLOSYM_NONFINITE_VALUE
     use holosym_problem, only: constrained_hamiltonian
     use holosym_linalg, only: lu_factor, lu_solve
+    use holosym_compositions, only: composition_coefficients, composition_max_order
     implicit none
     private
 
@@ -38,7 +43,7 @@ module holosym_rattle
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
     !> Largest composition order.
-    integer, parameter, public :: rattle_max_order = 10
+    integer, parameter, public :: rattle_max_order = composition_max_order
 
     !> Work done by a RATTLE integrator since `init`.
     type :: rattle_stats_t
@@ -95,48 +100,13 @@ module holosym_rattle
 
 contains
 
-    !> Substep fractions of the symmetric composition of RATTLE to order `order`
-    !! ('triple-jump' or 'suzuki'). Codes: HOLOSYM_INVALID_ORDER (order not in 2..10 even),
-    !! HOLOSYM_INVALID_ARGUMENT (unknown family).
-    subroutine composition_coefficients(order, family, gammas, status)
-        integer, intent(in) :: order          !! 2, 4, 6, 8 or 10
-        character(len=*), intent(in) :: family !! 'triple-jump' or 'suzuki'
-        real(wp), allocatable, intent(out) :: gammas(:) !! fractions of h, summing to 1
-        type(holosym_status_t), intent(out), optional :: status !! outcome
-        real(wp) :: g1, g2
-        integer :: p
-        if (order < 2 .or. order > rattle_max_order .or. mod(order, 2) /= 0) then
-            call set_status(status, HOLOSYM_INVALID_ORDER, "composition order must be 2, 4, 6, " &
-                // "8 or 10; got " // int_str(order))
-            return
-        end if
-        if (family /= "triple-jump" .and. family /= "suzuki") then
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "composition must be " // &
-                "'triple-jump' or 'suzuki'; got '" // family // "'")
-            return
-        end if
-        gammas = [1.0_wp]
-        do p = 2, order - 2, 2
-            if (family == "triple-jump") then
-                g1 = 1 / (2 - 2.0_wp**(1.0_wp / (p + 1)))
-                g2 = 1 - 2 * g1
-                gammas = [g1 * gammas, g2 * gammas, g1 * gammas]
-            else
-                g1 = 1 / (4 - 4.0_wp**(1.0_wp / (p + 1)))
-                g2 = 1 - 4 * g1
-                gammas = [g1 * gammas, g1 * gammas, g2 * gammas, g1 * gammas, g1 * gammas]
-            end if
-        end do
-        call set_status(status, HOLOSYM_SUCCESS, "")
-    end subroutine composition_coefficients
-
     !> Set up for `sys` (sizes n, m), composition order and family.
     !! Codes: those of `composition_coefficients`.
     subroutine rattle_init(self, sys, order, family, status)
         class(rattle_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in) :: sys !! the system (n, m are read)
-        integer, intent(in) :: order            !! 2, 4, 6, 8 or 10
-        character(len=*), intent(in) :: family  !! 'triple-jump' or 'suzuki'
+        integer, intent(in) :: order            !! 2, 4, 6, 8 or 10 (as the family has)
+        character(len=*), intent(in) :: family  !! a family of holosym_compositions
         type(holosym_status_t), intent(out), optional :: status !! outcome
         type(holosym_status_t) :: local
         integer :: n, m

@@ -1,4 +1,5 @@
-!> Lagrange interpolation basis on given nodes: values and tau-derivatives at given points.
+!> category: internal module (use holosym)
+!! Lagrange interpolation basis on given nodes: values and tau-derivatives at given points.
 !!
 !! For nodes x_1..x_K, rho_i(tau) = prod_{j /= i} (tau - x_j)/(x_i - x_j). The product form
 !! is used (not barycentric) so values at the nodes are exactly 0 or 1 and derivatives are

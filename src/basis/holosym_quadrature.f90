@@ -1,4 +1,5 @@
-!> Gauss-Legendre and Gauss-Lobatto quadrature on [0, 1], computed in working precision.
+!> category: internal module (use holosym)
+!! Gauss-Legendre and Gauss-Lobatto quadrature on [0, 1], computed in working precision.
 !!
 !! Nodes are found by Newton's method on Legendre polynomials (three-term recurrence),
 !! never typed in, so they are accurate to working precision for any number of points.
@@ -12,7 +13,6 @@ module holosym_quadrature
 
     public :: gauss_legendre, gauss_lobatto
 
-    real(wp), parameter :: pi = 4 * atan(1.0_wp)
     !> Newton on a node stops once the correction is below this (relative to 1).
     real(wp), parameter :: node_tolerance = epsilon(1.0_wp)
     !> Enough for quadratic convergence from the asymptotic first guesses.
@@ -27,9 +27,10 @@ contains
         real(wp), intent(out) :: weights(:) !! G positive weights summing to 1
         type(holosym_status_t), intent(out), optional :: status !! success or invalid size
         integer :: npts, i, iter
-        real(wp) :: x, dx, p, dp
+        real(wp) :: x, dx, p, dp, pi
         logical :: valid
 
+        pi = 4 * atan(1.0_wp) ! here, not a named constant: real128 atan is not folded everywhere
         npts = size(nodes)
         call check_sizes("Gauss-Legendre", 1, nodes, weights, valid, status)
         if (.not. valid) return
@@ -60,9 +61,10 @@ contains
         real(wp), intent(out) :: weights(:) !! k positive weights summing to 1
         type(holosym_status_t), intent(out), optional :: status !! success or invalid size
         integer :: npts, degree, i, iter
-        real(wp) :: x, dx, p, dp, d2p
+        real(wp) :: x, dx, p, dp, d2p, pi
         logical :: valid
 
+        pi = 4 * atan(1.0_wp) ! here, not a named constant: real128 atan is not folded everywhere
         npts = size(nodes)
         call check_sizes("Gauss-Lobatto", 2, nodes, weights, valid, status)
         if (.not. valid) return

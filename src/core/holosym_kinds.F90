@@ -1,4 +1,5 @@
-!> Working precision of holosym.
+!> category: internal module (use holosym)
+!! Working precision of holosym.
 !!
 !! Every real in the library is `real(wp)`. The default is quadruple precision
 !! (`real128`), as in the paper. A real64 build of the whole library is a compile-time

@@ -1,4 +1,5 @@
-!> Status codes and the status object returned by every fallible public procedure.
+!> category: internal module (use holosym)
+!! Status codes and the status object returned by every fallible public procedure.
 !!
 !! Convention: 0 is success, a negative code is invalid input (or a user abort),
 !! a positive code is a numerical failure. Every public entry point takes an optional
@@ -124,6 +125,15 @@ contains
         real(wp), intent(in) :: value !! value to format
         character(len=:), allocatable :: text
         character(len=48) :: buffer
+        ! Non-finite values spelled alike by every compiler.
+        if (value /= value) then
+            text = "NaN"
+            return
+        else if (abs(value) > huge(value)) then
+            text = merge("Infinity ", "-Infinity", value > 0)
+            text = trim(text)
+            return
+        end if
         ! A four-digit exponent field: real128 exponents reach 4932.
         write (buffer, '(es16.5e4)') value
         text = trim(adjustl(buffer))

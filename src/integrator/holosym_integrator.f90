@@ -1,4 +1,5 @@
-!> The integrator: set up with (M, N, G), advance a state by one step or many.
+!> category: internal module (use holosym)
+!! The integrator: set up with (M, N, G), advance a state by one step or many.
 !!
 !! `step` advances (q, p) by h in place and leaves them unchanged on failure.
 !! `integrate` runs many steps with compensated summation of the increments (round-off
@@ -543,8 +544,6 @@ contains
         integer(int64) :: residuals0, gradients0, hessians0, lowered0
 
         status%code = HOLOSYM_SUCCESS
-        call apply_options(self, h, status)
-        if (.not. status%ok()) return
         residuals0 = self%scheme%counters%residuals
         gradients0 = self%scheme%counters%gradients
         hessians0 = self%scheme%counters%hessians
@@ -569,7 +568,8 @@ contains
             call first_guess()
             call solve_with_retries(plain_settings(self%newton))
             call self%workspace%invalidate()
-            self%applied_modes = 0
+            ! The next steps use the chosen linear solver again.
+            self%workspace%linear_solver = self%applied_modes(1)
         end if
         self%stats%newton_iterations = self%stats%newton_iterations + iterations
         self%stats%lu_factorizations = self%stats%lu_factorizations + factorizations
@@ -790,6 +790,7 @@ contains
         type(holosym_status_t) :: local
 
         call validate(self, sys, q, p, h, local)
+        if (local%ok()) call apply_options(self, h, local)
         if (local%ok()) call solve_step(self, sys, q, p, h, local)
         if (.not. local%ok()) then
             call set_status(status, local%code, local%message)
@@ -831,6 +832,8 @@ contains
             return
         end if
         call validate(self, sys, q, p, h, local)
+        ! Options are translated once per call, not in the loop of steps.
+        if (local%ok()) call apply_options(self, h, local)
         if (.not. local%ok()) then
             call set_status(status, local%code, local%message)
             return

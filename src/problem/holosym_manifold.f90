@@ -1,4 +1,5 @@
-!> The constraint manifold {phi(q) = 0, Phi(q) H_p(q, p) = 0}: residuals of a state, scaled
+!> category: internal module (use holosym)
+!! The constraint manifold {phi(q) = 0, Phi(q) H_p(q, p) = 0}: residuals of a state, scaled
 !! so that a tolerance tied to epsilon means "at round-off level", and the rank test of Phi.
 module holosym_manifold
     use holosym_kinds, only: wp

@@ -1,4 +1,5 @@
-!> A chain of K planar pendula: the scaling test case, and with K = 2 the double pendulum.
+!> category: internal module (use holosym)
+!! A chain of K planar pendula: the scaling test case, and with K = 2 the double pendulum.
 !!
 !! Point masses m_k at r_k = (x_k, y_k), k = 1..K, joined by rods of lengths l_k: the first
 !! to the origin, each other to the previous mass. Uniform gravity g along -y.
@@ -9,7 +10,7 @@
 !! potential linear in q (no second derivatives), so the reduced step solves banded
 !! systems and its cost grows linearly with K.
 module holosym_model_chain
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     use holosym_problem, only: constrained_hamiltonian
     implicit none
     private
@@ -25,6 +26,8 @@ module holosym_model_chain
         procedure :: hamiltonian => chain_hamiltonian
         procedure :: dh_dq => chain_dh_dq
         procedure :: dh_dp => chain_dh_dp
+        !> dH/dq in real64 arithmetic.
+        procedure :: dh_dq_double => chain_dh_dq_double
         procedure :: constraint => chain_constraint
         procedure :: constraint_jacobian => chain_constraint_jacobian
         !> Exact second derivatives of H (all zero but d2H/dp2 = M^-1).
@@ -100,6 +103,17 @@ contains
             gradient(2 * k) = self%gravity * self%masses(k)
         end do
     end subroutine chain_dh_dq
+
+    subroutine chain_dh_dq_double(self, q, p, gradient)
+        class(pendulum_chain), intent(in) :: self
+        real(dp), intent(in) :: q(:), p(:)
+        real(dp), intent(out) :: gradient(:)
+        integer :: k
+        do k = 1, self%m
+            gradient(2 * k - 1) = 0
+            gradient(2 * k) = real(self%gravity * self%masses(k), dp)
+        end do
+    end subroutine chain_dh_dq_double
 
     subroutine chain_dh_dp(self, q, p, gradient)
         class(pendulum_chain), intent(in) :: self

@@ -1,8 +1,9 @@
-!> The paper's example systems (method.md section 5) and the planar pendulum, each
+!> category: internal module (use holosym)
+!! The paper's example systems (docs/method.md, section 6) and the planar pendulum, each
 !! defined by H, its gradients, phi and Phi, and the exact second derivatives of H and
 !! phi (which an integrator may ignore and difference instead: `hessians = 'differences'`).
 module holosym_models
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     use holosym_problem, only: constrained_hamiltonian
     implicit none
     private
@@ -26,6 +27,8 @@ module holosym_models
         procedure :: constraint_hessian => sphere_constraint_hessian
         !> H = p^T M^-1 p / 2 + U(q) with constant diagonal M: declared.
         procedure :: diagonal_mass => sphere_diagonal_mass
+        !> dH/dq in real64 arithmetic (the cos of the real64 iterations).
+        procedure :: dh_dq_double => sphere_dh_dq_double
         !> The paper's initial state q = (0, sqrt2/2, sqrt2/2), p = (0.6, 0, 0).
         procedure, nopass :: initial_state => sphere_initial_state
     end type spherical_pendulum
@@ -115,6 +118,14 @@ contains
         gradient(1:2) = 0
         gradient(3) = -self%mass * cos(q(3))
     end subroutine sphere_dh_dq
+
+    subroutine sphere_dh_dq_double(self, q, p, gradient)
+        class(spherical_pendulum), intent(in) :: self
+        real(dp), intent(in) :: q(:), p(:)
+        real(dp), intent(out) :: gradient(:)
+        gradient(1:2) = 0
+        gradient(3) = -real(self%mass, dp) * cos(q(3))
+    end subroutine sphere_dh_dq_double
 
     subroutine sphere_dh_dp(self, q, p, gradient)
         class(spherical_pendulum), intent(in) :: self

@@ -1,4 +1,5 @@
-!> The problem interface: a Hamiltonian system with holonomic constraints.
+!> category: internal module (use holosym)
+!! The problem interface: a Hamiltonian system with holonomic constraints.
 !!
 !! A user defines a system by extending `constrained_hamiltonian`, setting the sizes
 !! `n` (coordinates) and `m` (constraints), and implementing five procedures:
@@ -21,18 +22,15 @@
 !! With both patterns declared, the step's linear algebra is banded (after a reordering
 !! of the unknowns) and its cost grows linearly with the size of a chain-like system.
 module holosym_problem
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, dp
     implicit none
     private
 
     public :: constrained_hamiltonian, difference_hessian, difference_constraint_hessian
 
-    !> Relative step of the default central differences: epsilon**(1/3) balances
-    !! truncation (step**2) against round-off (epsilon/step).
-    real(wp), parameter :: difference_step = epsilon(1.0_wp)**(1.0_wp / 3)
 
     !> Abstract constrained Hamiltonian system. Extend it and implement the deferred bindings.
-    type, abstract, public :: constrained_hamiltonian
+    type, abstract :: constrained_hamiltonian
         !> Number of coordinates q (and momenta p), n >= 1.
         integer :: n = 0
         !> Number of holonomic constraints, 0 <= m < n.
@@ -62,6 +60,9 @@ module holosym_problem
         procedure :: constraint_jacobian_values => gathered_constraint_values
         !> Optional nonzero pattern of the Hessian of U (default: dense).
         procedure :: potential_sparsity => dense_potential_sparsity
+        !> dH/dq in real64 arithmetic, for the reduced step's first (real64) Newton
+        !! iterations (optional; default: `dh_dq` in working precision, rounded).
+        procedure :: dh_dq_double => rounded_dh_dq
     end type constrained_hamiltonian
 
     abstract interface
@@ -101,6 +102,13 @@ module holosym_problem
     end interface
 
 contains
+
+    !> Relative step of the default central differences: epsilon**(1/3) balances
+    !! truncation (step**2) against round-off (epsilon/step). A function rather than a
+    !! named constant because not every compiler folds real128 powers.
+    pure real(wp) function difference_step()
+        difference_step = epsilon(1.0_wp)**(1.0_wp / 3)
+    end function difference_step
 
     !> Default `diagonal_mass`: nothing declared. A system whose Hamiltonian is
     !! H = sum_i p_i^2 / (2 mass_i) + U(q) overrides it, sets `mass` and returns .true.;
@@ -148,6 +156,21 @@ contains
         end do
     end subroutine gathered_constraint_values
 
+    !> Default `dh_dq_double`: `dh_dq` at the arguments in working precision, rounded to
+    !! real64. A system whose dH/dq involves elementary functions overrides it with the same
+    !! formula in real64 arithmetic: a real128 cos costs about 300 times a real64 one, and
+    !! the reduced step's real64 iterations need only real64 accuracy (the final iterations
+    !! always use `dh_dq`).
+    subroutine rounded_dh_dq(self, q, p, gradient)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        real(dp), intent(in) :: q(:)         !! coordinates (n)
+        real(dp), intent(in) :: p(:)         !! momenta (n)
+        real(dp), intent(out) :: gradient(:) !! dH/dq (n)
+        real(wp) :: g(size(q))
+        call self%dh_dq(real(q, wp), real(p, wp), g)
+        gradient = real(g, dp)
+    end subroutine rounded_dh_dq
+
     !> Default `potential_sparsity`: every second derivative of U may be nonzero. An
     !! override returns the pairs (i, k) with d2U/dq_i dq_k possibly nonzero (either
     !! triangle or both; the diagonal may be left out). A potential linear in q
@@ -182,7 +205,7 @@ contains
 
         do k = 1, size(q)
             ! Differencing the representable neighbours keeps the divisor exact.
-            step = difference_step * max(1.0_wp, abs(q(k)))
+            step = difference_step() * max(1.0_wp, abs(q(k)))
             upper = q(k) + step
             lower = q(k) - step
             shifted = q
@@ -193,7 +216,7 @@ contains
             hqq(:, k) = (plus - minus) / (upper - lower)
         end do
         do k = 1, size(p)
-            step = difference_step * max(1.0_wp, abs(p(k)))
+            step = difference_step() * max(1.0_wp, abs(p(k)))
             upper = p(k) + step
             lower = p(k) - step
             shifted = p
@@ -221,7 +244,7 @@ contains
         integer :: k, l
 
         do k = 1, size(q)
-            step = difference_step * max(1.0_wp, abs(q(k)))
+            step = difference_step() * max(1.0_wp, abs(q(k)))
             upper = q(k) + step
             lower = q(k) - step
             shifted = q

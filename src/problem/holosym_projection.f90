@@ -1,4 +1,5 @@
-!> Projection of a state onto the constraint manifold {phi(q) = 0, Phi(q) H_p(q, p) = 0}.
+!> category: internal module (use holosym)
+!! Projection of a state onto the constraint manifold {phi(q) = 0, Phi(q) H_p(q, p) = 0}.
 !!
 !! The integrator accepts a start state only when both constraints hold to round-off
 !! (scaled residuals at most `manifold_tolerance_default`, see holosym_manifold).

@@ -1,4 +1,5 @@
-!> The reduced step's arithmetic in working precision: the template
+!> category: internal module (use holosym)
+!! The reduced step's arithmetic in working precision: the template
 !! include/holosym_reduced_kernels.inc with rk = wp.
 module holosym_reduced_kernels_wp
     use holosym_kinds, only: rk => wp
@@ -10,7 +11,7 @@ module holosym_reduced_kernels_wp
     !> SHA-256 of include/holosym_reduced_kernels.inc as compiled into this module
     !! (tools/include_digest.sh keeps it current; the test suite compares it with the file).
     character(len=*), parameter, public :: template_sha256 = &
-        "b6f1f02cd8ccd7505f14f582cdeb60cb01a6f8e70aeda101012d2f300240e957"
+        "95f20c6443001e050aeb6e12e0d140be672fe8337c2b8da0a3ed2b3df348be4b"
 
 #include "holosym_reduced_kernels.inc"
 

@@ -1,4 +1,5 @@
-!> The order of the unknowns and equations of the reduced step, and the sparsity of its
+!> category: internal module (use holosym)
+!! The order of the unknowns and equations of the reduced step, and the sparsity of its
 !! Newton matrix: the one place that knows where each unknown and each equation lives.
 !!
 !! Unknowns of the reduced step (momenta eliminated, see `holosym_reduced_scheme`):
@@ -182,7 +183,6 @@ contains
         ! Drop duplicates within each row (rows are short).
         allocate (list(size(from)))
         kept = 0
-        fill(1) = 1
         do r = 1, rows
             fill(r) = kept + 1
             do e = start(r), start(r + 1) - 1

@@ -1,4 +1,5 @@
-!> The reduced step equations: the scheme of `holosym_scheme` with the momenta eliminated,
+!> category: internal module (use holosym)
+!! The reduced step equations: the scheme of `holosym_scheme` with the momenta eliminated,
 !! for H = p^T M^-1 p / 2 + U(q) with a constant diagonal mass matrix M.
 !!
 !! The momentum equations R_p,j are then linear in the momentum nodes p_j: with
@@ -69,7 +70,10 @@ module holosym_reduced_scheme
         ! Step context.
         class(constrained_hamiltonian), pointer :: sys => null()
         real(wp), allocatable :: qa(:), pa(:), mass_over_h(:), inv_mass(:)
-        real(dp), allocatable :: low_qa(:), low_mass_over_h(:), low_inv_mass(:)
+        !> h w_g B(g, i) and h w_g of the step (working precision and real64).
+        real(wp), allocatable :: hwb(:, :), hw(:)
+        real(dp), allocatable :: low_hwb(:, :), low_hw(:)
+        real(dp), allocatable :: low_qa(:), low_mass_over_h(:), low_inv_mass(:), low_p_zero(:)
         real(wp) :: h = 0
         ! Workspace of the user calls.
         real(wp), allocatable :: q_work(:), p_zero(:), g_work(:), phi_work(:), pv_work(:)
@@ -234,6 +238,11 @@ contains
                   self%low_inv_mass(n), self%q_work(n), self%p_zero(n), self%g_work(n), &
                   self%phi_work(m), self%pv_work(nnz))
         self%p_zero = 0
+        allocate (self%hwb(self%gauss_points, 0:self%order_m), self%hw(self%gauss_points), &
+                  self%low_hwb(self%gauss_points, 0:self%order_m), &
+                  self%low_hw(self%gauss_points))
+        allocate (self%low_p_zero(n))
+        self%low_p_zero = 0
         self%inv_mass = 1 / self%mass
         self%low_inv_mass = real(self%inv_mass, dp)
         allocate (self%jac_values(size(self%layout%jac_col)), &
@@ -265,6 +274,10 @@ contains
         self%pa = pa
         self%h = h
         self%mass_over_h = self%mass / h
+        self%hwb = h * self%tab%wb
+        self%hw = h * self%tab%w
+        self%low_hwb = real(self%hwb, dp)
+        self%low_hw = real(self%hw, dp)
         self%low_qa = real(qa, dp)
         self%low_mass_over_h = real(self%mass_over_h, dp)
         self%have_eval = .false.
@@ -326,8 +339,8 @@ contains
                 f(lay%phi_row(:, i)) = self%phi_work
             end do
             call forces_wp(lay%phi_rows, lay%phi_cols, ev)
-            call sums_wp(self%tab, self%mass_over_h, self%inv_mass, self%h, lay%phi_rows, &
-                         lay%phi_cols, ev)
+            call sums_wp(self%tab, self%hwb, self%hw, self%mass_over_h, self%inv_mass, &
+                         lay%phi_rows, lay%phi_cols, ev)
             call rows_wp(lay%d_row, lay%v_row, self%pa, ev, f)
         end associate
         if (.not. all(is_finite(f))) then
@@ -350,8 +363,9 @@ contains
             HOLOSYM_NONFINITE_VALUE, "constraint returned a non-finite value")
     end subroutine constraint_values
 
-    !> The residual with the sums in real64 at the real64 unknowns x (the user's procedures
-    !! see working-precision arguments); also p_b - p_a to real64 accuracy in low%dp.
+    !> The residual with the sums in real64 at the real64 unknowns x; the gradient of U from
+    !! the system's `dh_dq_double`, its other procedures with working-precision arguments;
+    !! also p_b - p_a to real64 accuracy in low%dp.
     subroutine reduced_residual_lowered(self, x, f, status)
         class(reduced_scheme_t), intent(inout) :: self
         real(dp), intent(in) :: x(:)   !! unknowns (layout order), real64
@@ -363,11 +377,13 @@ contains
             call gather_dp(lay%z_col, lay%mu_col, x, ev)
             call positions_dp(self%low_tab, self%low_qa, ev)
             do g = 1, self%gauss_points
-                ! q~ from the real64 sums; the exact start q_a would be lost in real64.
-                self%q_work = self%qa + real(ev%qg(:, g) - self%low_qa, wp)
-                call potential_gradient(self, self%q_work, self%g_work, status)
-                if (.not. status%ok()) return
-                ev%grad(:, g) = real(self%g_work, dp)
+                call self%sys%dh_dq_double(ev%qg(:, g), self%low_p_zero, ev%grad(:, g))
+                self%gradients = self%gradients + 1
+                if (.not. all(ieee_is_finite(ev%grad(:, g)))) then
+                    call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq_double returned " &
+                        // "a non-finite value at a Gauss point")
+                    return
+                end if
             end do
             do i = 1, self%order_m
                 self%q_work = self%qa + real(ev%z(:, i), wp)
@@ -379,8 +395,8 @@ contains
                 f(lay%phi_row(:, i)) = real(self%phi_work, dp)
             end do
             call forces_dp(lay%phi_rows, lay%phi_cols, ev)
-            call sums_dp(self%low_tab, self%low_mass_over_h, self%low_inv_mass, &
-                         real(self%h, dp), lay%phi_rows, lay%phi_cols, ev)
+            call sums_dp(self%low_tab, self%low_hwb, self%low_hw, self%low_mass_over_h, &
+                         self%low_inv_mass, lay%phi_rows, lay%phi_cols, ev)
             call rows_dp(lay%d_row, lay%v_row, real(self%pa, dp), ev, f)
         end associate
         if (.not. all(ieee_is_finite(f))) call set_status(status, HOLOSYM_NONFINITE_VALUE, &
@@ -808,21 +824,25 @@ contains
         class(reduced_scheme_t), intent(in) :: self
         real(wp), intent(in) :: x_prev(:), qa_prev(:), qa(:)
         real(wp), intent(out) :: x(:)
-        integer :: i, k
+        integer :: i, k, c, l
+        real(wp) :: total
         associate (lay => self%layout)
-            do k = 0, self%order_m
-                if (k >= 1) then
-                    x(lay%z_col(:, k)) = qa_prev - qa
+            do k = 1, self%order_m
+                do c = 1, self%n
+                    total = qa_prev(c) - qa(c)
                     do i = 1, self%order_m
-                        x(lay%z_col(:, k)) = x(lay%z_col(:, k)) + self%extrap(k, i) * &
-                            x_prev(lay%z_col(:, i))
+                        total = total + self%extrap(k, i) * x_prev(lay%z_col(c, i))
                     end do
-                end if
-                if (self%m == 0) cycle
-                x(lay%mu_col(:, k)) = 0
-                do i = 0, self%order_m
-                    x(lay%mu_col(:, k)) = x(lay%mu_col(:, k)) + self%extrap(k, i) * &
-                        x_prev(lay%mu_col(:, i))
+                    x(lay%z_col(c, k)) = total
+                end do
+            end do
+            do k = 0, self%order_m
+                do l = 1, self%m
+                    total = 0
+                    do i = 0, self%order_m
+                        total = total + self%extrap(k, i) * x_prev(lay%mu_col(l, i))
+                    end do
+                    x(lay%mu_col(l, k)) = total
                 end do
             end do
         end associate

@@ -1,6 +1,7 @@
-!> The discrete scheme of one step (q_a, p_a) -> (q_b, p_b) for given (M, N, G):
+!> category: internal module (use holosym)
+!! The discrete scheme of one step (q_a, p_a) -> (q_b, p_b) for given (M, N, G):
 !! precomputed quadrature and basis matrices, and the residual and Jacobian of the
-!! nonlinear system of method.md section 3.
+!! nonlinear system of docs/method.md, section 3.
 !!
 !! Unknowns x, in increments so that step results are summed without cancellation:
 !!   z_i = q_i - q_a (i = 1..M),  w_j = p_j - p_a (j = 0..N),  mu_k = h lambda_k (k = 0..M).
@@ -34,7 +35,7 @@ module holosym_scheme
     implicit none
     private
 
-    public :: discrete_scheme, unknown_count
+    public :: unknown_count
 
     !> Jacobian assembled from the second derivatives of H and phi (default).
     integer, parameter, public :: JACOBIAN_ASSEMBLED = 1
@@ -50,8 +51,6 @@ module holosym_scheme
     !! delta (delta + d) <= this (relative to the squared size of the state): the neglected
     !! terms, of order delta^2 and delta d, are then below epsilon.
     real(wp), parameter :: linear_update_limit = epsilon(1.0_wp) / 16
-    !> Relative step of the residual differences: epsilon**(1/3).
-    real(wp), parameter :: residual_step = epsilon(1.0_wp)**(1.0_wp / 3)
 
     !> Counts of the user-function calls made by a scheme (cumulative since `init`).
     type, public :: scheme_counters_t
@@ -300,6 +299,7 @@ contains
     !> Deallocate every array component (before a new `init`).
     subroutine release(self)
         class(discrete_scheme), intent(inout) :: self
+        type(lowered_tables_t) :: empty_lowered ! every component unallocated
         if (allocated(self%disp_nodes)) deallocate (self%disp_nodes, self%lobatto_weights, &
             self%mom_nodes, self%gauss_nodes, self%gauss_weights, self%b, self%a, self%c)
         if (allocated(self%extrap_q)) deallocate (self%extrap_q, self%extrap_p)
@@ -312,7 +312,7 @@ contains
             self%phi_jac, self%velocity, self%q_work, self%phi_work)
         if (allocated(self%end_hqq)) deallocate (self%end_hqq, self%patterns, self%x_work, &
             self%f_plus, self%f_minus)
-        self%low = lowered_tables_t()
+        self%low = empty_lowered
         self%cache_valid = .false.
     end subroutine release
 
@@ -581,8 +581,11 @@ contains
         real(wp), intent(in) :: x(:)
         real(wp), intent(out) :: jac(:, :)
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: upper, lower
+        real(wp) :: upper, lower, residual_step
         integer :: j
+        ! Relative step epsilon**(1/3) (computed here: not every compiler folds real128
+        ! powers in a named constant).
+        residual_step = epsilon(1.0_wp)**(1.0_wp / 3)
         self%x_work = x
         do j = 1, self%nx
             upper = x(j) + residual_step * max(1.0_wp, abs(x(j)))
@@ -859,9 +862,9 @@ contains
         m = self%m
         if (h == h_prev) then
             ! Equal steps: precomputed rho_i(1 + d_k), chi_j(1 + c_l), no allocation. The
-            ! sums stay in working precision: summed in real64 (tried; 3-8 % fewer
-            ! instructions) the guess left a rounding component in Newton's last iterate
-            ! that doubled the round-off growth of L_z over 10^6 steps (extremes --part long).
+            ! sums stay in working precision although a guess needs less: a guess rounded
+            ! to real64 leaves a rounding component in Newton's last iterate, which makes
+            ! round-off grow faster over long runs (see docs/design.md).
             do k = 0, self%order_m
                 if (k >= 1) then
                     base = z_at(self, k)

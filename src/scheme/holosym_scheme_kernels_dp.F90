@@ -1,4 +1,5 @@
-!> The discrete scheme's kernels in real64: the template include/holosym_scheme_kernels.inc
+!> category: internal module (use holosym)
+!! The discrete scheme's kernels in real64: the template include/holosym_scheme_kernels.inc
 !! with rk = dp, for the residual of the real64 pre-solve and the Jacobian of the
 !! mixed-precision Newton solver, which factors in real64 anyway.
 module holosym_scheme_kernels_dp

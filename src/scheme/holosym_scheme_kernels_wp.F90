@@ -1,4 +1,5 @@
-!> The discrete scheme's kernels in working precision: the template
+!> category: internal module (use holosym)
+!! The discrete scheme's kernels in working precision: the template
 !! include/holosym_scheme_kernels.inc with rk = wp, for the residual of the final Newton
 !! iterations and the full-accuracy Jacobian of the plain path.
 module holosym_scheme_kernels_wp

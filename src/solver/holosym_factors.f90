@@ -1,4 +1,5 @@
-!> real64 factors of a sparse Newton matrix: dense LU (LAPACK dgetrf through
+!> category: internal module (use holosym)
+!! real64 factors of a sparse Newton matrix: dense LU (LAPACK dgetrf through
 !! `lu_factor_dp`) or banded LU (LAPACK dgbtrf/dgbtrs), chosen from the matrix's band.
 !!
 !! The matrix arrives in compressed sparse rows (a pattern fixed at `setup`, values per

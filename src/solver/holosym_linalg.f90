@@ -1,18 +1,17 @@
-!> Dense linear algebra in working precision: LU factorisation with partial pivoting
+!> category: internal module (use holosym)
+!! Dense linear algebra in working precision: LU factorisation with partial pivoting
 !! and the matching solve, in the style of LAPACK's getrf/getrs.
 !!
 !! Reference LAPACK has no real128 routines, so these are written here. A pivot whose
 !! magnitude is at most `tolerance * max|A|` (default `default_pivot_tolerance(n)` =
 !! n * epsilon) marks the matrix as singular to working precision.
 !!
-!! `lu_factor_dp`/`lu_solve_dp` are the real64 counterparts: they call LAPACK
-!! (dgetf2/dgetrf, dlaswp + BLAS dtrsv, dgetrs) through explicit interfaces with real64
-!! arrays (never real128 data). Measured for n = 15..93: with the reference LAPACK/BLAS the
-!! unblocked dgetf2 beats dgetrf by 1.3-2.5x, with OpenBLAS (installed by
-!! tools/install-deps.sh) dgetrf wins from n ~ 30 on (4x at n = 93); hence dgetf2 below
-!! `blocked_lu_size`. One right-hand side is solved by plain substitution loops below
-!! `blas_solve_size` (measured 1.2-1.7x faster than dlaswp + OpenBLAS dtrsv for
-!! n = 15..60, whose per-call overhead dominates there) and by dlaswp + dtrsv above.
+!! `lu_factor_dp`/`lu_solve_dp` are the real64 counterparts: they call LAPACK (dgetrf,
+!! dlaswp + BLAS dtrsv, dgetrs) through explicit interfaces with real64 arrays (never
+!! real128 data). At the orders of typical Newton systems the per-call overhead of the
+!! BLAS routines dominates the arithmetic, so below `small_lu_size` the factorisation is
+!! our own loops (`small_lu`, LAPACK's conventions) and one right-hand side below
+!! `blas_solve_size` is solved by plain substitution loops.
 !! Newton uses them for mixed precision (a real64 factorisation, real128 residuals) and,
 !! in the real64 build, for everything. The LAPACK/BLAS calls run one thread at a time
 !! (an OpenMP critical section): a serial OpenBLAS is not safe for concurrent calls.
@@ -24,23 +23,14 @@ module holosym_linalg
     public :: lu_factor, lu_solve, default_pivot_tolerance
     public :: lu_factor_dp, lu_solve_dp, default_pivot_tolerance_dp
 
-    !> From this order on `lu_factor_dp` uses the blocked dgetrf instead of dgetf2.
-    integer, parameter :: blocked_lu_size = 32
+    !> Below this order `lu_factor_dp` factors with its own loops (`small_lu`): the per-column
+    !! BLAS calls of LAPACK's unblocked dgetf2 cost more than the arithmetic there (about 6
+    !! times the instructions at n = 25); from it on, LAPACK's blocked dgetrf.
+    integer, parameter :: small_lu_size = 32
     !> From this order on one right-hand side is solved with BLAS dtrsv.
     integer, parameter :: blas_solve_size = 64
 
     interface
-        !> LAPACK: unblocked LU factorisation of a real64 general matrix.
-        subroutine dgetf2(m, n, a, lda, ipiv, info)
-            import :: dp
-            integer, intent(in) :: m      !! rows
-            integer, intent(in) :: n      !! columns
-            integer, intent(in) :: lda    !! leading dimension of a
-            real(dp), intent(inout) :: a(lda, *) !! matrix in, factors out
-            integer, intent(out) :: ipiv(*)     !! pivot indices
-            integer, intent(out) :: info        !! 0, -i bad argument i, i > 0 zero pivot
-        end subroutine dgetf2
-
         !> LAPACK: row interchanges of a matrix.
         subroutine dlaswp(n, a, lda, k1, k2, ipiv, incx)
             import :: dp
@@ -200,10 +190,10 @@ contains
         end if
     end function argument_info
 
-    !> LU factorisation of a real64 matrix with LAPACK's dgetf2 (dgetrf for n >= 32), with
-    !! the same contract as
-    !! `lu_factor`: `info` 0 success, -1 not square, -2 `pivots` too short, k > 0 when the
-    !! k-th pivot is at most `tolerance * max|A|` (default n * epsilon(1.0_dp)).
+    !> LU factorisation of a real64 matrix (own loops below order 32, LAPACK dgetrf above),
+    !! with the same contract as `lu_factor`: `info` 0 success, -1 not square, -2 `pivots`
+    !! too short, k > 0 when the k-th pivot is at most `tolerance * max|A|` (default
+    !! n * epsilon(1.0_dp)).
     subroutine lu_factor_dp(a, pivots, info, tolerance, pivot_ratio)
         real(dp), intent(inout), contiguous :: a(:, :) !! A (n x n) in, LAPACK factors out
         integer, intent(out) :: pivots(:)   !! row interchanges (LAPACK ipiv)
@@ -231,8 +221,8 @@ contains
         ! buffers between concurrent calls (seen as run-to-run differences in the OpenMP
         ! `tables`; none with the reference LAPACK or inside this critical section).
         !$omp critical (holosym_lapack)
-        if (n < blocked_lu_size) then
-            call dgetf2(n, n, a, size(a, 1), pivots, lapack_info)
+        if (n < small_lu_size) then
+            call small_lu(a, pivots)
         else
             call dgetrf(n, n, a, size(a, 1), pivots, lapack_info)
         end if
@@ -248,6 +238,38 @@ contains
         end do
         if (present(pivot_ratio)) pivot_ratio = smallest / scale
     end subroutine lu_factor_dp
+
+    !> Right-looking LU with partial pivoting in LAPACK's conventions (unit lower L and U
+    !! overwrite A, pivots(k) = the row swapped with row k), for small orders. Exact zero
+    !! pivots are left for the caller's threshold test.
+    pure subroutine small_lu(a, pivots)
+        real(dp), intent(inout) :: a(:, :) !! A (n x n) in, factors out
+        integer, intent(out) :: pivots(:)  !! row interchanges
+        real(dp) :: swap(size(a, 2)), largest
+        integer :: n, k, i, j, p
+        n = size(a, 1)
+        do k = 1, n
+            p = k
+            largest = abs(a(k, k))
+            do i = k + 1, n
+                if (abs(a(i, k)) > largest) then
+                    p = i
+                    largest = abs(a(i, k))
+                end if
+            end do
+            pivots(k) = p
+            if (p /= k) then
+                swap = a(k, :)
+                a(k, :) = a(p, :)
+                a(p, :) = swap
+            end if
+            if (a(k, k) == 0) cycle
+            a(k + 1:n, k) = a(k + 1:n, k) / a(k, k)
+            do j = k + 1, n
+                a(k + 1:n, j) = a(k + 1:n, j) - a(k + 1:n, k) * a(k, j)
+            end do
+        end do
+    end subroutine small_lu
 
     !> Solve A x = b with the factors from `lu_factor_dp`; `b` (n x nrhs) is overwritten.
     subroutine lu_solve_dp(lu, pivots, b)
@@ -277,7 +299,7 @@ contains
     !> One right-hand side with LAPACK factors: the interchanges in order, then forward
     !! (unit L) and back (U) substitution, column oriented.
     pure subroutine substitute(lu, pivots, x)
-        real(dp), intent(in) :: lu(:, :)    !! factors from dgetf2/dgetrf (n x n)
+        real(dp), intent(in) :: lu(:, :)    !! factors from small_lu or dgetrf (n x n)
         integer, intent(in) :: pivots(:)    !! LAPACK ipiv
         real(dp), intent(inout) :: x(:)     !! right-hand side in, solution out
         integer :: n, k

@@ -1,4 +1,5 @@
-!> Newton's method for a square nonlinear system F(x) = 0 in working precision.
+!> category: internal module (use holosym)
+!! Newton's method for a square nonlinear system F(x) = 0 in working precision.
 !!
 !! The system is an object extending `nonlinear_system` (residual and Jacobian). Each
 !! iteration equilibrates the rows of the Jacobian, factors it with `lu_factor` and
@@ -54,13 +55,15 @@ module holosym_newton
     !! 1.6e-10: well above the real64 round-off of the lowered residual (cond * 1e-16, where
     !! its iterations stagnate and refactor in vain), and close enough that real64 factors
     !! taken there finish in two working-precision residuals (error e -> kappa e^2 +
-    !! 1e-16 e). Measured (instructions per step, six bench configurations): 0-48 % fewer
-    !! than stopping at 64 real64 epsilons; 1e-8 and 1e-9 gained no more ...
-    real(wp), parameter :: lowered_tolerance = real(epsilon(1.0_dp), wp)**0.625_wp
+    !! 1e-16 e); stopping nearer the real64 round-off costs more iterations, stopping
+    !! earlier gains nothing. (eps**(5/8) written with square roots, which every compiler
+    !! folds in real128.)
+    real(wp), parameter :: lowered_tolerance = sqrt(real(epsilon(1.0_dp), wp)) * &
+        sqrt(sqrt(sqrt(real(epsilon(1.0_dp), wp))))
     !> ... or stop decreasing below this one (real64 round-off of the lowered residual).
     real(wp), parameter :: lowered_floor = sqrt(real(epsilon(1.0_dp), wp))
-    !> Cost of a lowered residual relative to a working-precision one (measured on the
-    !! models, roughly), for the refactoring decision of the pre-solve.
+    !> Cost of a lowered residual relative to a working-precision one (roughly, on the
+    !! example systems), for the refactoring decision of the pre-solve.
     real(wp), parameter :: lowered_cost_ratio = 0.25_wp
 
     !> A square nonlinear system: extend it and implement `residual` and `jacobian`.
@@ -81,8 +84,10 @@ module holosym_newton
     type :: newton_settings_t
         !> Stop when max|dx| <= tolerance * max(scale, max|x|).
         real(wp) :: tolerance = 8 * eps
-        !> A correction that no longer decreases is accepted as converged below this level.
-        real(wp) :: stagnation_level = eps**(2.0_wp / 3)
+        !> A correction that no longer decreases is accepted as converged below this level;
+        !! <= 0 (the default) means epsilon**(2/3) (not every compiler folds that real128
+        !! power in a default value).
+        real(wp) :: stagnation_level = 0
         !> Iteration limit.
         integer :: max_iterations = 50
         !> Declared diverged after this many consecutive growing corrections above stagnation.
@@ -246,7 +251,7 @@ contains
         type(newton_workspace_t), intent(inout) :: ws
         type(holosym_status_t), intent(inout), optional :: status
         real(wp) :: correction, previous, tolerance, pivot_ratio, rate, rate_floor
-        real(wp) :: fresh_correction, target, cost
+        real(wp) :: fresh_correction, target, cost, stagnation
         real(dp) :: pivot_ratio_dp
         integer :: info, iter, growth, nx, factor_age, phase_iterations
         logical :: plain, refactor, fresh, native_only, lowered, converged
@@ -265,6 +270,8 @@ contains
         report%pivot_ratio = huge(1.0_wp)
         tolerance = settings%pivot_tolerance
         if (tolerance <= 0) tolerance = default_pivot_tolerance(nx)
+        stagnation = settings%stagnation_level
+        if (stagnation <= 0) stagnation = eps**(2.0_wp / 3)
         ! The original full Newton in working precision keeps its exact behaviour.
         plain = .not. settings%simplified .and. ws%linear_solver == LINEAR_SOLVER_NATIVE
         native_only = ws%linear_solver == LINEAR_SOLVER_NATIVE
@@ -408,7 +415,7 @@ contains
                 ! Corrections that stop decreasing this small are the round-off floor of the
                 ! problem (kept factors contract well above it or are refreshed); so are
                 ! fresh factors that no longer contract there.
-                converged = converged .or. (correction <= settings%stagnation_level .and. &
+                converged = converged .or. (correction <= stagnation .and. &
                     (correction >= previous .or. (.not. plain .and. factor_age == 2 .and. &
                                                   rate > mixed_rate_limit)))
             end if
@@ -427,7 +434,7 @@ contains
                     refactor_pays(rate, correction, ws%kappa, rate_floor, settings%tolerance, &
                                   settings%jacobian_cost)
             else if (plain .or. fresh) then
-                if (correction > previous .and. correction > settings%stagnation_level) then
+                if (correction > previous .and. correction > stagnation) then
                     growth = growth + 1
                     if (growth >= settings%max_growth) then
                         call fail(HOLOSYM_NEWTON_DIVERGED, "Newton corrections grew " // &
@@ -443,12 +450,12 @@ contains
                 ! too ill-conditioned for real64; continue in working precision.
                 if (.not. settings%simplified .and. ws%factors_in_dp .and. &
                     iter >= mixed_rate_iteration .and. rate > mixed_rate_limit .and. &
-                    previous <= lowered_floor .and. correction > settings%stagnation_level) &
+                    previous <= lowered_floor .and. correction > stagnation) &
                     call use_working_precision()
             else if (phase_iterations > 1) then
                 if (factor_age == 2 .and. ws%factors_in_dp .and. rate > mixed_rate_limit &
                     .and. fresh_correction <= lowered_floor .and. &
-                    correction > settings%stagnation_level) then
+                    correction > stagnation) then
                     ! Fresh real64 factors taken near the solution contract poorly.
                     call use_working_precision()
                 else

@@ -1,4 +1,5 @@
-!> One step of the reduced scheme (`holosym_reduced_scheme`) by simplified Newton with
+!> category: internal module (use holosym)
+!! One step of the reduced scheme (`holosym_reduced_scheme`) by simplified Newton with
 !! mixed precision: a real64 Newton matrix (differences of the real64 residual; dense or
 !! banded LU, `holosym_factors`) kept across iterations and steps while it contracts well;
 !! first iterations on the real64 residual, then on the working-precision residual to the

@@ -1,0 +1,291 @@
+!> `holosym bench --long`: long runs, where the method's structure should pay: the planar
+!! pendulum to T = 10^4 and 10^5 and the spherical pendulum to T = 10^4 (real128).
+!!
+!! Per case: a reference q(T), p(T) from holosym (8,7,9) at h = 1/16 and 1/32 (its error
+!! estimated from their difference / (2^16 - 1)); holosym (6,5,7) and (8,7,9) with h
+!! halved from 1 until the error at T is below the smallest target; the cheapest run of
+!! each configuration reaching each target (1e-20, 1e-24) is then run again, untimed,
+!! with the whole-run max |phi|, max |Phi H_p| and energy error measured after every
+!! step. With --heyoka PYTHON, tools/heyoka_bench.py runs the index-1 form over a sweep
+!! of tolerances on the same reference. Rows go to DIR/long.csv.
+!! The sweep of (8,7,9) stops above the reference's coarser step (h_ref), where its error
+!! could no longer be told from the reference's.
+!! `--quick` (tests): T = 20 and 10, references at h = 1/8 and 1/16, heyoka at 1e-20 and
+!! 1e-24 only.
+module holosym_bench_long
+    use, intrinsic :: iso_fortran_env, only: real64
+    use holosym_kinds, only: wp, wp_is_double
+    use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS
+    use holosym_problem, only: constrained_hamiltonian
+    use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
+    use holosym_manifold, only: manifold_residuals
+    use holosym_systems, only: make_system
+    use holosym_cli_common, only: fail, csv_real
+    implicit none
+    private
+
+    public :: run_long, long_header, long_targets
+
+    !> Header of DIR/long.csv (tools/heyoka_bench.py writes the same columns).
+    character(len=*), parameter :: long_header = "system,method,precision,span,config," // &
+        "tolerance,steps,error,max_phi,max_hidden,energy_error,seconds,compile_seconds,status"
+    !> Error targets at T.
+    real(wp), parameter :: long_targets(2) = [1.0e-20_wp, 1.0e-24_wp]
+    !> holosym configurations of the sweep: (M, N, G) columns.
+    integer, parameter :: configs(3, 2) = reshape([6, 5, 7, 8, 7, 9], [3, 2])
+    !> heyoka tolerances of the sweep.
+    character(len=*), parameter :: heyoka_tolerances = &
+        "1e-22,1e-24,1e-26,1e-27,1e-28,1e-29,1e-30,1e-31,1e-32,1e-33"
+    character(len=*), parameter :: heyoka_tolerances_quick = "1e-20,1e-24"
+
+    !> Whole-run monitor: max |phi|, max |Phi H_p|, max |(H - H0)/H0| after every step.
+    type, extends(step_observer) :: run_monitor
+        class(constrained_hamiltonian), allocatable :: sys
+        real(wp) :: energy0 = 0, max_phi = 0, max_hidden = 0, energy_error = 0
+    contains
+        procedure :: observe => monitor_observe
+    end type run_monitor
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
+contains
+
+    subroutine monitor_observe(self, step, t, q, p, info, halt)
+        class(run_monitor), intent(inout) :: self
+        integer, intent(in) :: step
+        real(wp), intent(in) :: t, q(:), p(:)
+        type(step_info_t), intent(in) :: info
+        logical, intent(inout) :: halt
+        real(wp) :: position, velocity
+        call manifold_residuals(self%sys, q, p, position, velocity)
+        self%max_phi = max(self%max_phi, position, info%constraint_residual)
+        self%max_hidden = max(self%max_hidden, velocity)
+        self%energy_error = max(self%energy_error, &
+            abs((self%sys%hamiltonian(q, p) - self%energy0) / self%energy0))
+    end subroutine monitor_observe
+
+    !> One holosym run to T: CPU seconds (no monitor), error at T; with `diagnose`, a
+    !! second, monitored run for the whole-run residuals.
+    subroutine one_run(sys, q0, p0, span, config, h, q_ref, p_ref, diagnose, seconds, &
+                       error, monitor, status, q_end, p_end)
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q0(:), p0(:), span, h, q_ref(:), p_ref(:)
+        integer, intent(in) :: config(3)
+        logical, intent(in) :: diagnose
+        real(real64), intent(out) :: seconds
+        real(wp), intent(out) :: error
+        type(run_monitor), intent(inout) :: monitor
+        type(holosym_status_t), intent(out) :: status
+        real(wp), intent(out), optional :: q_end(:), p_end(:)
+        type(constrained_integrator) :: integ
+        real(wp) :: q(size(q0)), p(size(p0))
+        real(real64) :: start, finish
+        integer :: steps
+        steps = nint(span / h)
+        q = q0
+        p = p0
+        seconds = 0
+        error = huge(1.0_wp)
+        call integ%init(sys, config(1), config(2), config(3), status)
+        if (.not. status%ok()) return
+        call cpu_time(start)
+        call integ%integrate(sys, q, p, span / steps, steps, status=status)
+        call cpu_time(finish)
+        if (.not. status%ok()) return
+        seconds = finish - start
+        error = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
+        if (present(q_end)) q_end = q
+        if (present(p_end)) p_end = p
+        if (.not. diagnose) return
+        q = q0
+        p = p0
+        monitor%energy0 = sys%hamiltonian(q0, p0)
+        monitor%max_phi = 0
+        monitor%max_hidden = 0
+        monitor%energy_error = 0
+        call integ%init(sys, config(1), config(2), config(3), status)
+        call integ%integrate(sys, q, p, span / steps, steps, observer=monitor, status=status)
+    end subroutine one_run
+
+    !> The long runs into DIR/long.csv (replaced). `python`: interpreter with heyoka, or "".
+    subroutine run_long(dir, python, quick, err_unit, status)
+        character(len=*), intent(in) :: dir    !! output directory
+        character(len=*), intent(in) :: python !! heyoka's Python ("" = holosym only)
+        logical, intent(in) :: quick           !! the short variant for tests
+        integer, intent(in) :: err_unit        !! progress
+        type(holosym_status_t), intent(inout) :: status !! I/O or set-up failure
+        character(len=8), parameter :: systems(3) = [character(len=8) :: "planar", "planar", &
+                                                     "pendulum"]
+        real(wp) :: spans(3), span, h_ref, change, h, error, best(2), previous
+        class(constrained_hamiltonian), allocatable :: sys
+        real(wp), allocatable :: q0(:), p0(:), q_ref(:), p_ref(:), q1(:), p1(:)
+        type(run_monitor) :: monitor
+        type(holosym_status_t) :: run_status
+        real(real64) :: seconds
+        integer :: c, k, unit, ios, level, t, exit_code
+        character(len=256) :: message
+        character(len=:), allocatable :: reference_path, out_path, command
+
+        if (wp_is_double) then
+            call fail(status, "the long runs need the real128 build (targets 1e-20, 1e-24)")
+            return
+        end if
+        if (quick) then
+            spans = [20.0_wp, 20.0_wp, 10.0_wp]
+            h_ref = 0.125_wp
+        else
+            spans = [1.0e4_wp, 1.0e5_wp, 1.0e4_wp]
+            h_ref = 0.0625_wp
+        end if
+        out_path = dir // "/long.csv"
+        reference_path = dir // "/long_reference.csv"
+        open (newunit=unit, file=out_path, status="replace", action="write", iostat=ios, &
+              iomsg=message)
+        if (ios /= 0) then
+            call fail(status, "cannot write " // out_path // ": " // trim(message))
+            return
+        end if
+        write (unit, '(a)') long_header
+        close (unit)
+        do c = 1, size(systems)
+            if (quick .and. c == 2) cycle
+            span = spans(c)
+            call make_system(trim(systems(c)), sys, q0, p0, status)
+            if (.not. status%ok()) return
+            allocate (monitor%sys, source=sys)
+            allocate (q_ref(size(q0)), p_ref(size(p0)), q1(size(q0)), p1(size(p0)))
+            ! Reference: (8,7,9) at h_ref and h_ref / 2.
+            call one_run(sys, q0, p0, span, configs(:, 2), h_ref, q0, p0, .false., seconds, &
+                         error, monitor, status, q1, p1)
+            if (status%ok()) call one_run(sys, q0, p0, span, configs(:, 2), h_ref / 2, q0, &
+                p0, .false., seconds, error, monitor, status, q_ref, p_ref)
+            if (.not. status%ok()) return
+            change = max(maxval(abs(q1 - q_ref)), maxval(abs(p1 - p_ref)))
+            write (err_unit, '(a)') "bench --long: " // trim(systems(c)) // " T = " // &
+                real_str(span) // ": reference (8,7,9) h = " // real_str(h_ref / 2) // &
+                ", estimated error " // real_str(change / (2.0_wp**16 - 1))
+            call write_reference(reference_path, trim(systems(c)), q0, p0, q_ref, p_ref, &
+                                 change / (2.0_wp**16 - 1), status)
+            if (.not. status%ok()) return
+            do k = 1, size(configs, 2)
+                best = -1
+                h = 1
+                previous = huge(1.0_wp)
+                do level = 0, 12
+                    ! The reference's own configuration and step cannot be measured by it.
+                    if (k == 2 .and. h <= h_ref) exit
+                    call one_run(sys, q0, p0, span, configs(:, k), h, q_ref, p_ref, .false., &
+                                 seconds, error, monitor, run_status)
+                    write (err_unit, '(a)') "bench --long: " // trim(systems(c)) // " (" // &
+                        config_text(configs(:, k)) // ") h = " // real_str(h) // ": error " // &
+                        real_str(error) // ", " // real_str(real(seconds, wp)) // " s"
+                    if (run_status%ok()) then
+                        do t = 1, size(long_targets)
+                            if (best(t) < 0 .and. error <= long_targets(t)) then
+                                best(t) = h
+                                call record(h)
+                                if (.not. status%ok()) return
+                            end if
+                        end do
+                    end if
+                    if (all(best > 0)) exit
+                    if (.not. (run_status%ok() .and. error < previous / 2)) exit  ! no gain
+                    previous = error
+                    h = h / 2
+                end do
+            end do
+            if (len(python) > 0) then
+                command = "'" // python // "' tools/heyoka_bench.py long --system " // &
+                    trim(systems(c)) // " --span " // trim(real_str(span)) // &
+                    " --reference '" // reference_path // "' --out '" // out_path // &
+                    "' --tolerances "
+                if (quick) then
+                    command = command // heyoka_tolerances_quick
+                else
+                    command = command // heyoka_tolerances
+                end if
+                call execute_command_line(command, exitstat=exit_code)
+                if (exit_code /= 0) then
+                    call fail(status, "heyoka long runs failed: " // command)
+                    return
+                end if
+            end if
+            deallocate (monitor%sys, q_ref, p_ref, q1, p1)
+        end do
+
+    contains
+
+        !> Run (config k, h) again with the monitor and append its row.
+        subroutine record(step)
+            real(wp), intent(in) :: step
+            real(real64) :: timed
+            real(wp) :: timed_error
+            call one_run(sys, q0, p0, span, configs(:, k), step, q_ref, p_ref, .true., &
+                         timed, timed_error, monitor, run_status)
+            open (newunit=unit, file=out_path, position="append", action="write", &
+                  iostat=ios, iomsg=message)
+            if (ios /= 0) then
+                call fail(status, "cannot write " // out_path // ": " // trim(message))
+                return
+            end if
+            write (unit, '(a)') trim(systems(c)) // ",holosym,real128," // &
+                trim(real_str(span)) // ",(" // config_text(configs(:, k)) // ") h=" // &
+                trim(real_str(step)) // ",0," // int_str(nint(span / step)) // "," // &
+                csv_real(error) // "," // csv_real(monitor%max_phi) // "," // &
+                csv_real(monitor%max_hidden) // "," // csv_real(monitor%energy_error) // "," &
+                // csv_real(real(seconds, wp)) // ",0," // int_str(run_status%code)
+            close (unit)
+        end subroutine record
+
+    end subroutine run_long
+
+    pure function config_text(config) result(text)
+        integer, intent(in) :: config(3)
+        character(len=:), allocatable :: text
+        text = int_str(config(1)) // " " // int_str(config(2)) // " " // int_str(config(3))
+    end function config_text
+
+    !> Append the initial and reference states of a case (the format of reference.csv).
+    subroutine write_reference(path, system, q0, p0, q_ref, p_ref, accuracy, status)
+        character(len=*), intent(in) :: path, system
+        real(wp), intent(in) :: q0(:), p0(:), q_ref(:), p_ref(:), accuracy
+        type(holosym_status_t), intent(inout) :: status
+        integer :: unit, ios, k
+        character(len=256) :: message
+        open (newunit=unit, file=path, status="replace", action="write", iostat=ios, &
+              iomsg=message)
+        if (ios /= 0) then
+            call fail(status, "cannot write " // path // ": " // trim(message))
+            return
+        end if
+        write (unit, '(a)') "# " // system // ": estimated error of the reference " // &
+            real_str(accuracy)
+        do k = 1, size(q0)
+            write (unit, '(a)') system // ",q0," // int_str(k) // "," // csv_real(q0(k))
+        end do
+        do k = 1, size(p0)
+            write (unit, '(a)') system // ",p0," // int_str(k) // "," // csv_real(p0(k))
+        end do
+        do k = 1, size(q_ref)
+            write (unit, '(a)') system // ",q," // int_str(k) // "," // csv_real(q_ref(k))
+        end do
+        do k = 1, size(p_ref)
+            write (unit, '(a)') system // ",p," // int_str(k) // "," // csv_real(p_ref(k))
+        end do
+        close (unit)
+    end subroutine write_reference
+
+end module holosym_bench_long
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_bench_long) holosym_bench_long_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_bench_long_app

@@ -1,0 +1,407 @@
+!> The `ensemble` command of the `holosym` tool: many trajectories of one system, from
+!! initial states read from CSV or generated around the system's initial state, in
+!! parallel (OpenMP threads; MPI ranks in the holosym-mpi build), one result row per
+!! trajectory written the moment it completes, resumable after a kill.
+!!
+!! The work is the library's (`run_ensemble`, `ensemble_csv_sink`); this module parses the
+!! options, builds the states and the settings, and reports. With an MPI farm every rank
+!! runs this command with the same arguments: all of them read or generate the same
+!! states, only the collector (rank 0) touches the results file and the timing log.
+module holosym_cli_ensemble
+    use, intrinsic :: iso_fortran_env, only: int64
+    use holosym_kinds, only: wp
+    use holosym_status, only: holosym_status_t, status_code_name, int_str, real_str, &
+        HOLOSYM_SUCCESS
+    use holosym_problem, only: constrained_hamiltonian
+    use holosym_task_farm, only: task_farm, openmp_farm
+    use holosym_ensemble, only: ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
+        run_ensemble, check_ensemble, perturbed_states
+    use holosym_ensemble_files, only: read_ensemble_states, ensemble_csv_sink, seconds_text
+    use holosym_systems, only: make_system, is_system_name, system_names, system_choices
+    use holosym_cli_common, only: parsed_command_proceeds, cli_argument_t, split_option, &
+        option_value, parse_integer, parse_real, fail, csv_real, join_lines, EXIT_OK, &
+        EXIT_FAILURE
+    implicit none
+    private
+
+    public :: ensemble_config_t, parse_ensemble_options, ensemble_command, ensemble_help
+
+    !> Options of `holosym ensemble`.
+    type :: ensemble_config_t
+        character(len=:), allocatable :: system  !! system name
+        integer :: order_m = 2                   !! M
+        integer :: order_n = 1                   !! N (default M - 1)
+        integer :: gauss_points = 3              !! G (default max(M, N) + 1)
+        real(wp) :: step_size = 0.0625_wp        !! default h
+        real(wp) :: final_time = 10.0_wp         !! default T
+        character(len=:), allocatable :: states  !! states CSV ("" with --perturb)
+        integer :: perturb = 0                   !! number of generated states (0: none)
+        real(wp) :: scale = 1.0e-3_wp            !! perturbation size
+        integer :: seed = 1                      !! generator seed
+        character(len=:), allocatable :: output  !! results file
+        character(len=:), allocatable :: timing  !! timing log
+        character(len=:), allocatable :: samples !! samples directory ("" for none)
+        integer :: every = 0                     !! sample stride (0: none)
+        logical :: project = .false.             !! project the states first
+        logical :: resume = .false.              !! complete an interrupted run
+        integer :: threads = 0                   !! OpenMP threads (0: OMP_NUM_THREADS)
+        logical :: quiet = .false.               !! no progress lines
+        logical :: help = .false.                !! --help given
+    end type ensemble_config_t
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
+contains
+
+    !> The text of `holosym ensemble --help`.
+    pure function ensemble_help() result(text)
+        character(len=:), allocatable :: text !! the help
+        text = join_lines([character(len=96) :: &
+            "Usage: holosym ensemble (--states FILE | --perturb K) --output FILE [options]", &
+            "", &
+            "Integrate many trajectories of one system in parallel and write one result row", &
+            "per trajectory, in the order they complete; when all are done the rows are", &
+            "sorted by id, so the file is the same whatever the threads or MPI ranks.", &
+            "", &
+            "Initial states (one of):", &
+            "  --states FILE   CSV rows id,q1..qn,p1..pn[,h][,T] (optional header naming", &
+            "                  these columns; '#' lines ignored); h and T per trajectory", &
+            "  --perturb K     K states around the system's initial state, ids 1..K: each", &
+            "                  q_i and p_i moved by S u, u uniform in [-1, 1), then projected", &
+            "  --scale S       perturbation size, >= 0                      [1e-3]", &
+            "  --seed N        generator seed                               [1]", &
+            "", &
+            "Options:", &
+            "  --system NAME   " // "pendulum, linkage or planar               [pendulum]", &
+            "  --M, --N, --G   the scheme                                   [2, M-1, max(M,N)+1]", &
+            "  --h REAL        step size of rows without their own h        [0.0625]", &
+            "  --T REAL        final time of rows without their own T       [10]", &
+            "  --output FILE   results CSV (required; an existing file is refused unless", &
+            "                  --resume)", &
+            "  --timing FILE   CPU and wall seconds per trajectory [OUTPUT without .csv,", &
+            "                  + .timing.csv]", &
+            "  --samples DIR   the state every K steps into DIR/<id>.csv (one per trajectory)", &
+            "  --every K       sample stride for --samples                  [1]", &
+            "  --project       project off-manifold --states rows onto the manifold first", &
+            "                  (without it they are an error)", &
+            "  --resume        complete an interrupted run: keep the rows of OUTPUT and", &
+            "                  compute only the missing ids (same options required)", &
+            "  --threads N     OpenMP threads                               [OMP_NUM_THREADS]", &
+            "  --quiet         no progress lines", &
+            "  -h, --help      show this help", &
+            "", &
+            "Results: a line '# <the run's settings>', the header, then", &
+            "id,code,steps,steps_done,q1..qn,p1..pn,max_energy_error,", &
+            "max_constraint_residual,max_velocity_residual,newton_iterations,message", &
+            "(code 0: success; else the status code, and the message says why).", &
+            "Progress (done/total, rate, time left) on stderr. Exit status: 0 every row", &
+            "written (failed trajectories included), 1 bad input or I/O failure, 2 bad usage.", &
+            "", &
+            "Example:", &
+            "  holosym ensemble --system pendulum --perturb 100 --scale 0.01 --T 10 \", &
+            "      --output pendulum.csv"])
+    end function ensemble_help
+
+    !> Parse the options of `ensemble`. Failure: HOLOSYM_INVALID_ARGUMENT naming the option.
+    subroutine parse_ensemble_options(args, config, status)
+        type(cli_argument_t), intent(in) :: args(:)     !! the command's arguments
+        type(ensemble_config_t), intent(out) :: config  !! parsed settings
+        type(holosym_status_t), intent(out) :: status   !! outcome
+        character(len=:), allocatable :: name, inline, value
+        logical :: has_inline, n_given, g_given, every_given, timing_given
+        integer :: i
+
+        config%system = system_names(1)
+        config%states = ""
+        config%output = ""
+        config%timing = ""
+        config%samples = ""
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        n_given = .false.
+        g_given = .false.
+        every_given = .false.
+        timing_given = .false.
+        i = 1
+        do while (i <= size(args))
+            call split_option(args(i)%text, name, inline, has_inline)
+            select case (name)
+            case ("-h", "--help")
+                config%help = .true.
+                return
+            case ("--project", "--resume", "--quiet")
+                if (has_inline) then
+                    call fail(status, "option " // name // " takes no value")
+                    return
+                end if
+                if (name == "--project") config%project = .true.
+                if (name == "--resume") config%resume = .true.
+                if (name == "--quiet") config%quiet = .true.
+            case ("--system", "--M", "--N", "--G", "--h", "--T", "--states", "--perturb", &
+                  "--scale", "--seed", "--output", "--timing", "--samples", "--every", &
+                  "--threads")
+                call option_value(args, i, name, inline, has_inline, value, status)
+                if (.not. status%ok()) return
+                select case (name)
+                case ("--system")
+                    config%system = value
+                    if (.not. is_system_name(value)) call fail(status, "option --system: " // &
+                        "unknown system '" // value // "'; choose " // system_choices)
+                case ("--M")
+                    call parse_integer(name, value, config%order_m, status)
+                    call require(config%order_m >= 1, ">= 1")
+                case ("--N")
+                    call parse_integer(name, value, config%order_n, status)
+                    call require(config%order_n >= 0, ">= 0")
+                    n_given = .true.
+                case ("--G")
+                    call parse_integer(name, value, config%gauss_points, status)
+                    call require(config%gauss_points >= 1, ">= 1")
+                    g_given = .true.
+                case ("--h")
+                    call parse_real(name, value, config%step_size, status)
+                    call require(config%step_size > 0, "> 0")
+                case ("--T")
+                    call parse_real(name, value, config%final_time, status)
+                    call require(config%final_time >= 0, ">= 0")
+                case ("--states")
+                    config%states = value
+                case ("--perturb")
+                    call parse_integer(name, value, config%perturb, status)
+                    call require(config%perturb >= 1, ">= 1")
+                case ("--scale")
+                    call parse_real(name, value, config%scale, status)
+                    call require(config%scale >= 0, ">= 0")
+                case ("--seed")
+                    call parse_integer(name, value, config%seed, status)
+                case ("--output")
+                    config%output = value
+                case ("--timing")
+                    config%timing = value
+                    timing_given = .true.
+                case ("--samples")
+                    config%samples = value
+                case ("--every")
+                    call parse_integer(name, value, config%every, status)
+                    call require(config%every >= 1, ">= 1")
+                    every_given = .true.
+                case ("--threads")
+                    call parse_integer(name, value, config%threads, status)
+                    call require(config%threads >= 1, ">= 1")
+                end select
+                if (.not. status%ok()) return
+            case default
+                call fail(status, "unknown option '" // args(i)%text // "'")
+                return
+            end select
+            i = i + 1
+        end do
+        if (.not. n_given) config%order_n = config%order_m - 1
+        if (.not. g_given) config%gauss_points = max(config%order_m, config%order_n) + 1
+        if (len(config%states) > 0 .eqv. config%perturb > 0) then
+            call fail(status, "give exactly one of --states FILE and --perturb K")
+        else if (len(config%output) == 0) then
+            call fail(status, "option --output FILE is required")
+        else if (every_given .and. len(config%samples) == 0) then
+            call fail(status, "option --every needs --samples DIR")
+        end if
+        if (len(config%samples) > 0 .and. .not. every_given) config%every = 1
+        if (.not. timing_given) config%timing = timing_name(config%output)
+    contains
+        subroutine require(condition, bound)
+            logical, intent(in) :: condition
+            character(len=*), intent(in) :: bound
+            if (status%ok() .and. .not. condition) call fail(status, "option " // name // &
+                " must be " // bound // "; got '" // value // "'")
+        end subroutine require
+    end subroutine parse_ensemble_options
+
+    !> The default timing log of a results file: "out.csv" gives "out.timing.csv".
+    pure function timing_name(output) result(name)
+        character(len=*), intent(in) :: output
+        character(len=:), allocatable :: name
+        integer :: stem
+        stem = len(output)
+        if (len(output) > 4) then
+            if (output(len(output) - 3:) == ".csv") stem = len(output) - 4
+        end if
+        name = output(:stem) // ".timing.csv"
+    end function timing_name
+
+    !> A digest of the states (31-bit, of their bytes): a resumed run must have the same.
+    function states_digest(states) result(text)
+        type(ensemble_states_t), intent(in) :: states
+        character(len=:), allocatable :: text
+        integer(int64), parameter :: modulus = 2147483647_int64
+        integer(int64) :: digest
+        character(len=16) :: buffer
+        digest = 0
+        call add(transfer(states%id, [character(len=1) ::]))
+        call add(transfer(states%q, [character(len=1) ::]))
+        call add(transfer(states%p, [character(len=1) ::]))
+        if (allocated(states%step_size)) call add(transfer(states%step_size, &
+            [character(len=1) ::]))
+        if (allocated(states%final_time)) call add(transfer(states%final_time, &
+            [character(len=1) ::]))
+        write (buffer, '(z8.8)') digest
+        text = trim(buffer)
+    contains
+        subroutine add(bytes)
+            character(len=1), intent(in) :: bytes(:)
+            integer :: i
+            do i = 1, size(bytes)
+                digest = modulo(digest * 257 + ichar(bytes(i)), modulus)
+            end do
+        end subroutine add
+    end function states_digest
+
+    !> `holosym ensemble ARGS`: parse, build the states, run, report. `farm` (default: the
+    !! OpenMP threads of --threads) computes the trajectories.
+    subroutine ensemble_command(args, out_unit, err_unit, exit_code, farm)
+        type(cli_argument_t), intent(in) :: args(:) !! arguments after "ensemble"
+        integer, intent(in) :: out_unit   !! unit for the help
+        integer, intent(in) :: err_unit   !! unit for progress and errors
+        integer, intent(out) :: exit_code !! process exit code
+        class(task_farm), intent(inout), optional :: farm !! who computes (MPI: every rank)
+        type(ensemble_config_t) :: config
+        type(holosym_status_t) :: status
+        type(openmp_farm) :: threads
+
+        call parse_ensemble_options(args, config, status)
+        if (.not. parsed_command_proceeds("ensemble", status, config%help, ensemble_help(), &
+                                          out_unit, err_unit, exit_code)) return
+        threads%threads = config%threads
+        if (present(farm)) then
+            call run_ensemble_command(config, farm, err_unit, exit_code)
+        else
+            call run_ensemble_command(config, threads, err_unit, exit_code)
+        end if
+    end subroutine ensemble_command
+
+    !> Run a parsed `ensemble` command on a farm.
+    subroutine run_ensemble_command(config, farm, err_unit, exit_code)
+        type(ensemble_config_t), intent(in) :: config !! the options
+        class(task_farm), intent(inout) :: farm       !! who computes
+        integer, intent(in) :: err_unit               !! progress and errors
+        integer, intent(out) :: exit_code             !! process exit code
+        class(constrained_hamiltonian), allocatable :: sys
+        type(ensemble_states_t) :: states
+        type(ensemble_settings_t) :: settings
+        type(ensemble_result_t), allocatable :: results(:)
+        type(ensemble_csv_sink) :: sink
+        type(holosym_status_t) :: status
+        real(wp), allocatable :: q0(:), p0(:)
+        logical, allocatable :: skip(:)
+        character(len=:), allocatable :: description
+        integer(int64) :: clock_start, clock_end, clock_rate
+        logical :: collector
+
+        exit_code = EXIT_FAILURE
+        collector = farm%is_collector()
+        call system_clock(clock_start, clock_rate)
+        call make_system(config%system, sys, q0, p0, status)
+        if (status%ok()) then
+            if (config%perturb > 0) then
+                call perturbed_states(q0, p0, config%perturb, config%scale, config%seed, &
+                                      states, status)
+            else
+                call read_ensemble_states(config%states, sys%n, states, status)
+            end if
+        end if
+        settings%order_m = config%order_m
+        settings%order_n = config%order_n
+        settings%gauss_points = config%gauss_points
+        settings%step_size = config%step_size
+        settings%final_time = config%final_time
+        settings%every = config%every
+        settings%project = config%project .or. config%perturb > 0
+        if (status%ok()) call check_ensemble(sys, states, settings, status)
+        if (status%ok() .and. len(config%samples) > 0) call make_directory(config%samples, &
+                                                                          status)
+        sink%label = "holosym ensemble: "
+        sink%samples_dir = config%samples
+        if (.not. config%quiet) sink%progress_unit = err_unit
+        description = "holosym ensemble system=" // config%system // " M=" // &
+            int_str(config%order_m) // " N=" // int_str(config%order_n) // " G=" // &
+            int_str(config%gauss_points) // " h=" // csv_real(config%step_size) // " T=" // &
+            csv_real(config%final_time) // " project=" // &
+            trim(merge("yes", "no ", settings%project)) // " every=" // int_str(config%every)
+        if (status%ok()) description = description // " states=" // states_digest(states)
+        ! Only the collector owns the results file; every process learns whether it opened.
+        if (status%ok() .and. collector) call sink%open(config%output, config%timing, &
+            description, sys%n, states%id, config%resume, skip, status)
+        if (.not. farm%agree(status%ok())) then
+            if (.not. status%ok()) write (err_unit, '(a)') "holosym ensemble: error: " // &
+                status%message
+            return
+        end if
+        if (.not. allocated(skip)) allocate (skip(size(states%id)), source=.false.)
+        if (collector .and. .not. config%quiet) write (err_unit, '(a)') &
+            "holosym ensemble: " // config%system // " (n = " // int_str(sys%n) // &
+            ", m = " // int_str(sys%m) // "), (M, N, G) = (" // int_str(config%order_m) // &
+            ", " // int_str(config%order_n) // ", " // int_str(config%gauss_points) // "), " &
+            // int_str(size(states%id)) // " trajectories, " // int_str(count(skip)) // &
+            " already done, " // int_str(count(.not. skip)) // " to run on " // &
+            workers_text(farm, config%threads)
+        call run_ensemble(sys, states, settings, results, status, sink, farm, skip)
+        if (.not. collector) then
+            exit_code = EXIT_OK
+            if (.not. status%ok()) exit_code = EXIT_FAILURE
+            return
+        end if
+        if (.not. status%ok()) write (err_unit, '(a)') "holosym ensemble: error: " // &
+            status_code_name(status%code) // ": " // status%message
+        call sink%finish(status)
+        if (.not. status%ok()) then
+            write (err_unit, '(a)') "holosym ensemble: error: " // status%message
+            return
+        end if
+        call system_clock(clock_end)
+        if (.not. config%quiet) write (err_unit, '(a)') "holosym ensemble: " // &
+            int_str(count(.not. skip)) // " trajectories in " // &
+            seconds_text(real(clock_end - clock_start, wp) / clock_rate, '(f0.2)') // " s (" // &
+            int_str(sink%failures()) // " failed); results in " // config%output
+        exit_code = EXIT_OK
+    end subroutine run_ensemble_command
+
+    !> "2 threads" or "3 MPI ranks", for the start line.
+    function workers_text(farm, threads) result(text)
+        !$ use omp_lib, only: omp_get_max_threads
+        class(task_farm), intent(inout) :: farm
+        integer, intent(in) :: threads
+        character(len=:), allocatable :: text
+        integer :: count
+        if (farm%processes() > 1) then
+            text = int_str(farm%processes()) // " MPI ranks"
+            return
+        end if
+        count = max(threads, 1)
+        !$ if (threads == 0) count = omp_get_max_threads()
+        text = int_str(count) // " thread" // trim(merge("s", " ", count > 1))
+    end function workers_text
+
+    !> Create a directory (and its parents) unless it exists.
+    subroutine make_directory(path, status)
+        character(len=*), intent(in) :: path
+        type(holosym_status_t), intent(inout) :: status
+        integer :: exit_status, command_status
+        call execute_command_line("mkdir -p '" // path // "'", wait=.true., &
+            exitstat=exit_status, cmdstat=command_status)
+        if (command_status /= 0 .or. exit_status /= 0) call fail(status, &
+            "cannot create the samples directory '" // path // "'")
+    end subroutine make_directory
+
+end module holosym_cli_ensemble
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_cli_ensemble) holosym_cli_ensemble_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_cli_ensemble_app

@@ -1,0 +1,849 @@
+!> Files of an ensemble run: initial states read from CSV, results written as CSV rows the
+!! moment each trajectory completes, a timing log, and sampled states in one file per
+!! trajectory.
+!!
+!! Nothing lost: `ensemble_csv_sink` appends each result row and flushes it, so a killed run
+!! keeps every completed row (a row cut short by the kill is dropped when the run is
+!! resumed). Opening an existing results file for a new run is refused; `resume` keeps its
+!! complete rows and marks their trajectories to skip. When the run has every row, `finish`
+!! rewrites the file with the rows in ascending id order (to a temporary file, then renamed
+!! over it): the same bytes whatever the order of completion, the number of threads or
+!! ranks, and however often the run was interrupted. CPU and wall seconds go to the timing
+!! log, never to the results, which are reproducible byte for byte.
+!!
+!! Results file: a first line `# ` followed by the caller's description of the run (a
+!! resumed run must have the same), the header
+!! `id,code,steps,steps_done,q1..qn,p1..pn,max_energy_error,max_constraint_residual,`
+!! `max_velocity_residual,newton_iterations,message`, then one row per trajectory; reals
+!! with 36 significant digits (exact in real128), the message in double quotes.
+module holosym_ensemble_files
+    use, intrinsic :: iso_fortran_env, only: int64
+    use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
+    use holosym_kinds, only: wp
+    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+    use holosym_ensemble, only: ensemble_states_t, ensemble_result_t, ensemble_sink, &
+        sorted_order
+    implicit none
+    private
+
+    public :: read_ensemble_states, ensemble_csv_sink, result_header, result_row, &
+        samples_header, parse_csv_fields, csv_text_t, seconds_text
+
+    !> Format of a real field: 36 significant digits round-trip a real128 exactly.
+    character(len=*), parameter :: real_format = '(es44.35e4)'
+    !> Longest integer accepted in a CSV field (more digits overflow the default integer).
+    integer, parameter :: max_integer_digits = 9
+
+    !> One piece of text (a line or a field).
+    type :: csv_text_t
+        character(len=:), allocatable :: text !! the text
+    end type csv_text_t
+
+    !> Writes the results file, the timing log and the samples of an ensemble run.
+    type, extends(ensemble_sink) :: ensemble_csv_sink
+        !> Unit for progress lines; negative for none.
+        integer :: progress_unit = -1
+        !> Seconds between progress lines (the last line is always written).
+        real(wp) :: progress_interval = 5
+        !> Prefix of progress lines.
+        character(len=:), allocatable :: label
+        !> Directory of the sample files `<id>.csv` ("" for none).
+        character(len=:), allocatable :: samples_dir
+        character(len=:), allocatable, private :: path, timing_path, description
+        integer, private :: unit = 0
+        integer, private :: timing_unit = 0
+        logical, private :: unit_open = .false.
+        logical, private :: timing_open = .false.
+        integer, private :: n = 0
+        integer, private :: to_do = 0
+        integer, private :: done = 0
+        integer, private :: failed = 0
+        integer, private :: rows = 0
+        integer, private :: expected_rows = 0
+        integer(int64), private :: clock_start = 0
+        integer(int64), private :: clock_rate = 1
+        integer(int64), private :: clock_last = 0
+        integer, private :: io_status = 0
+        character(len=:), allocatable, private :: io_message
+    contains
+        !> Create the results file (refused if it exists) or, to resume, reopen it.
+        procedure :: open => sink_open
+        !> Write a completed trajectory's row (and timing), flushed; report progress.
+        procedure :: completed => sink_completed
+        !> Write a trajectory's samples to samples_dir/<id>.csv (via a temporary file).
+        procedure :: store_samples => sink_store_samples
+        !> Close the files; with every row present, sort the rows by id.
+        procedure :: finish => sink_finish
+        !> Trajectories that failed among those written in this run.
+        procedure :: failures => sink_failures
+    end type ensemble_csv_sink
+
+    interface
+        integer(c_int) function c_rename(old, new) bind(C, name="rename")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: old(*)
+            character(kind=c_char), intent(in) :: new(*)
+        end function c_rename
+    end interface
+
+contains
+
+    !> Read initial states from a CSV file with rows `id,q1..qn,p1..pn[,h][,T]`: an optional
+    !! header line naming exactly these columns (`id,q1,...,pn,h,T`), blank lines and lines
+    !! starting with '#' ignored. Without a header the first row's field count says whether
+    !! h and T are there (2n + 1, 2n + 2 or 2n + 3 fields). Every row must have that count,
+    !! an integer id, finite numbers and an id of its own. Fails with
+    !! HOLOSYM_INVALID_ARGUMENT and a message "FILE:LINE: what"; `states` is then unchanged.
+    subroutine read_ensemble_states(path, n, states, status)
+        character(len=*), intent(in) :: path               !! the CSV file
+        integer, intent(in) :: n                           !! coordinates of the system
+        type(ensemble_states_t), intent(inout) :: states   !! the states read
+        type(holosym_status_t), intent(out), optional :: status !! outcome
+        type(ensemble_states_t) :: read
+        type(csv_text_t), allocatable :: lines(:), fields(:)
+        integer, allocatable :: line_of(:), order(:)
+        character(len=:), allocatable :: message
+        integer :: ios, i, k, rows, width, first_data, j
+        logical :: header
+
+        call read_text_lines(path, lines, ios, message)
+        if (ios /= 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot read states file '" // &
+                path // "': " // message)
+            return
+        end if
+        width = 0
+        header = .false.
+        rows = 0
+        allocate (line_of(size(lines)))
+        first_data = 0
+        do i = 1, size(lines)
+            if (ignorable(lines(i)%text)) cycle
+            call parse_csv_fields(lines(i)%text, fields, ios)
+            if (width == 0) then
+                if (fields(1)%text == "id") then
+                    header = .true.
+                    width = size(fields)
+                    if (.not. header_matches(fields)) then
+                        call fail(i, "the header must be id,q1..q" // int_str(n) // ",p1..p" // &
+                            int_str(n) // " and optionally h and T; got '" // lines(i)%text // &
+                            "'")
+                        return
+                    end if
+                    cycle
+                end if
+                width = size(fields)
+                if (width < 2 * n + 1 .or. width > 2 * n + 3) then
+                    call fail(i, "expected 2n + 1 = " // int_str(2 * n + 1) // " fields " // &
+                        "(id,q1..q" // int_str(n) // ",p1..p" // int_str(n) // &
+                        "), optionally followed by h and T; got " // int_str(width))
+                    return
+                end if
+            end if
+            if (size(fields) /= width) then
+                call fail(i, "expected " // int_str(width) // " fields like the " // &
+                    trim(merge("header   ", "first row", header)) // "; got " // &
+                    int_str(size(fields)))
+                return
+            end if
+            rows = rows + 1
+            line_of(rows) = i
+            if (first_data == 0) first_data = i
+        end do
+        allocate (read%id(rows), read%q(n, rows), read%p(n, rows))
+        if (width >= 2 * n + 2) allocate (read%step_size(rows))
+        if (width >= 2 * n + 3) allocate (read%final_time(rows))
+        do k = 1, rows
+            i = line_of(k)
+            call parse_csv_fields(lines(i)%text, fields, ios)
+            if (.not. integer_field(fields(1)%text, read%id(k))) then
+                call fail(i, "field 1 (id) must be an integer; got '" // fields(1)%text // "'")
+                return
+            end if
+            do j = 2, width
+                if (j <= n + 1) then
+                    if (.not. real_field(j, read%q(j - 1, k))) return
+                else if (j <= 2 * n + 1) then
+                    if (.not. real_field(j, read%p(j - n - 1, k))) return
+                else if (j == 2 * n + 2) then
+                    if (.not. real_field(j, read%step_size(k))) return
+                    if (.not. read%step_size(k) > 0) then
+                        call fail(i, "field " // int_str(j) // " (h) must be > 0; got '" // &
+                            fields(j)%text // "'")
+                        return
+                    end if
+                else
+                    if (.not. real_field(j, read%final_time(k))) return
+                    if (.not. read%final_time(k) >= 0) then
+                        call fail(i, "field " // int_str(j) // " (T) must be >= 0; got '" // &
+                            fields(j)%text // "'")
+                        return
+                    end if
+                end if
+            end do
+        end do
+        order = sorted_order(read%id)
+        do k = 2, rows
+            if (read%id(order(k)) == read%id(order(k - 1))) then
+                call fail(line_of(max(order(k), order(k - 1))), "duplicate id " // &
+                    int_str(read%id(order(k))) // " (also on line " // &
+                    int_str(line_of(min(order(k), order(k - 1)))) // ")")
+                return
+            end if
+        end do
+        if (rows == 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, path // ": no states")
+            return
+        end if
+        states = read
+        call set_status(status, HOLOSYM_SUCCESS, "")
+
+    contains
+
+        subroutine fail(line, what)
+            integer, intent(in) :: line
+            character(len=*), intent(in) :: what
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, path // ":" // int_str(line) // &
+                ": " // what)
+        end subroutine fail
+
+        logical function header_matches(names)
+            type(csv_text_t), intent(in) :: names(:)
+            integer :: c
+            header_matches = size(names) >= 2 * n + 1 .and. size(names) <= 2 * n + 3
+            if (.not. header_matches) return
+            do c = 1, n
+                header_matches = header_matches .and. names(c + 1)%text == "q" // int_str(c) &
+                    .and. names(c + n + 1)%text == "p" // int_str(c)
+            end do
+            if (size(names) >= 2 * n + 2) header_matches = header_matches .and. &
+                names(2 * n + 2)%text == "h"
+            if (size(names) >= 2 * n + 3) header_matches = header_matches .and. &
+                names(2 * n + 3)%text == "T"
+        end function header_matches
+
+        !> Field j of row k as a finite real, or a failure naming it.
+        logical function real_field(column, value) result(ok)
+            integer, intent(in) :: column
+            real(wp), intent(out) :: value
+            ok = decimal_field(fields(column)%text, value)
+            if (.not. ok) call fail(i, "field " // int_str(column) // " must be a finite " // &
+                "number; got '" // fields(column)%text // "'")
+        end function real_field
+
+    end subroutine read_ensemble_states
+
+    !> Blank lines and comments ('#' first) of a states file.
+    pure logical function ignorable(line)
+        character(len=*), intent(in) :: line
+        integer :: first
+        first = verify(line, " ")
+        ignorable = first == 0
+        if (.not. ignorable) ignorable = line(first:first) == "#"
+    end function ignorable
+
+    !> Split a CSV line at commas outside double quotes; a quoted field loses its quotes and
+    !! "" inside it stands for one quote. Blanks around unquoted fields are removed. `ios`
+    !! is 1 when a quote is not closed (a line cut short), else 0.
+    subroutine parse_csv_fields(line, fields, ios)
+        character(len=*), intent(in) :: line                    !! the line
+        type(csv_text_t), allocatable, intent(out) :: fields(:) !! its fields
+        integer, intent(out) :: ios                             !! 0, or 1 for an open quote
+        character(len=:), allocatable :: field
+        logical :: quoted, was_quoted
+        integer :: i
+        allocate (fields(0))
+        field = ""
+        quoted = .false.
+        was_quoted = .false.
+        ios = 0
+        i = 1
+        do while (i <= len(line))
+            if (quoted) then
+                if (line(i:i) == '"') then
+                    if (i < len(line)) then
+                        if (line(i + 1:i + 1) == '"') then
+                            field = field // '"'
+                            i = i + 2
+                            cycle
+                        end if
+                    end if
+                    quoted = .false.
+                else
+                    field = field // line(i:i)
+                end if
+            else if (line(i:i) == '"' .and. len_trim(field) == 0) then
+                quoted = .true.
+                was_quoted = .true.
+                field = ""
+            else if (line(i:i) == ",") then
+                call finish_field()
+            else
+                field = field // line(i:i)
+            end if
+            i = i + 1
+        end do
+        if (quoted) ios = 1
+        call finish_field()
+    contains
+        subroutine finish_field()
+            if (was_quoted) then
+                fields = [fields, csv_text_t(field)]
+            else
+                fields = [fields, csv_text_t(trim(adjustl(field)))]
+            end if
+            field = ""
+            was_quoted = .false.
+        end subroutine finish_field
+    end subroutine parse_csv_fields
+
+    !> A decimal integer field (optional sign, at most `max_integer_digits` digits).
+    logical function integer_field(text, value) result(ok)
+        character(len=*), intent(in) :: text
+        integer, intent(out) :: value
+        integer :: first, ios
+        value = 0
+        first = 1
+        if (len(text) >= 1) then
+            if (text(1:1) == "+" .or. text(1:1) == "-") first = 2
+        end if
+        ok = len(text) >= first .and. len(text) - first + 1 <= max_integer_digits
+        if (ok) ok = verify(text(first:), "0123456789") == 0
+        if (.not. ok) return
+        read (text, *, iostat=ios) value
+        ok = ios == 0
+    end function integer_field
+
+    !> A finite decimal number: [sign] digits [. digits] [(e|E|d|D) [sign] digits] with at
+    !! least one mantissa digit and nothing else (so NaN and Inf are refused).
+    logical function decimal_field(text, value) result(ok)
+        character(len=*), intent(in) :: text
+        real(wp), intent(out) :: value
+        integer :: i, mantissa, exponent, ios
+        value = 0
+        ok = .false.
+        i = 1
+        call skip_sign()
+        mantissa = count_digits()
+        if (i <= len(text)) then
+            if (text(i:i) == ".") then
+                i = i + 1
+                mantissa = mantissa + count_digits()
+            end if
+        end if
+        if (mantissa == 0) return
+        if (i <= len(text)) then
+            if (scan(text(i:i), "eEdD") == 0) return
+            i = i + 1
+            call skip_sign()
+            exponent = count_digits()
+            if (exponent == 0) return
+        end if
+        if (i <= len(text)) return
+        read (text, *, iostat=ios) value
+        ok = ios == 0
+        if (ok) ok = is_finite(value)
+    contains
+        subroutine skip_sign()
+            if (i <= len(text)) then
+                if (text(i:i) == "+" .or. text(i:i) == "-") i = i + 1
+            end if
+        end subroutine skip_sign
+        integer function count_digits()
+            count_digits = 0
+            do while (i <= len(text))
+                if (verify(text(i:i), "0123456789") /= 0) exit
+                count_digits = count_digits + 1
+                i = i + 1
+            end do
+        end function count_digits
+    end function decimal_field
+
+    !> Every line of a text file, of any length.
+    subroutine read_text_lines(path, lines, ios, message)
+        character(len=*), intent(in) :: path
+        type(csv_text_t), allocatable, intent(out) :: lines(:)
+        integer, intent(out) :: ios
+        character(len=:), allocatable, intent(out) :: message
+        character(len=4096) :: chunk
+        character(len=256) :: io_message
+        character(len=:), allocatable :: line
+        integer :: unit, got
+        allocate (lines(0))
+        message = ""
+        open (newunit=unit, file=path, status="old", action="read", iostat=ios, &
+              iomsg=io_message)
+        if (ios /= 0) then
+            message = trim(io_message)
+            return
+        end if
+        do
+            line = ""
+            do
+                read (unit, '(a)', advance="no", iostat=ios, size=got) chunk
+                line = line // chunk(:got)
+                if (ios /= 0) exit
+            end do
+            if (is_iostat_end(ios)) then
+                ! A last line without its end of line (a write cut short) is kept.
+                if (len(line) > 0) lines = [lines, csv_text_t(line)]
+                exit
+            end if
+            if (.not. is_iostat_eor(ios)) then
+                message = "read error"
+                close (unit)
+                return
+            end if
+            lines = [lines, csv_text_t(line)]
+        end do
+        ios = 0
+        close (unit)
+    end subroutine read_text_lines
+
+    !> A real as a CSV field: 36 significant digits, no blanks.
+    function real_text(value) result(text)
+        real(wp), intent(in) :: value
+        character(len=:), allocatable :: text
+        character(len=48) :: buffer
+        write (buffer, real_format) value
+        text = trim(adjustl(buffer))
+    end function real_text
+
+    !> The header of the results file for n coordinates.
+    pure function result_header(n) result(header)
+        integer, intent(in) :: n !! number of coordinates
+        character(len=:), allocatable :: header
+        integer :: i
+        header = "id,code,steps,steps_done"
+        do i = 1, n
+            header = header // ",q" // int_str(i)
+        end do
+        do i = 1, n
+            header = header // ",p" // int_str(i)
+        end do
+        header = header // ",max_energy_error,max_constraint_residual,max_velocity_residual," &
+            // "newton_iterations,message"
+    end function result_header
+
+    !> The results row of one trajectory (see the module header).
+    function result_row(result) result(row)
+        type(ensemble_result_t), intent(in) :: result !! the trajectory
+        character(len=:), allocatable :: row
+        character(len=24) :: iterations
+        integer :: i
+        row = int_str(result%id) // "," // int_str(result%code) // "," // &
+            int_str(result%steps) // "," // int_str(result%steps_done)
+        do i = 1, size(result%q)
+            row = row // "," // real_text(result%q(i))
+        end do
+        do i = 1, size(result%p)
+            row = row // "," // real_text(result%p(i))
+        end do
+        write (iterations, '(i0)') result%newton_iterations
+        row = row // "," // real_text(result%max_energy_error) // "," // &
+            real_text(result%max_constraint_residual) // "," // &
+            real_text(result%max_velocity_residual) // "," // trim(iterations) // "," // &
+            quoted(result%message)
+    end function result_row
+
+    !> Text in double quotes, each quote doubled, control characters as blanks.
+    pure function quoted(text) result(field)
+        character(len=*), intent(in) :: text
+        character(len=:), allocatable :: field
+        integer :: i
+        field = '"'
+        do i = 1, len(text)
+            if (text(i:i) == '"') then
+                field = field // '""'
+            else if (iachar(text(i:i)) < 32) then
+                field = field // " "
+            else
+                field = field // text(i:i)
+            end if
+        end do
+        field = field // '"'
+    end function quoted
+
+    !> The header of a samples file for n coordinates.
+    pure function samples_header(n) result(header)
+        integer, intent(in) :: n !! number of coordinates
+        character(len=:), allocatable :: header
+        integer :: i
+        header = "t"
+        do i = 1, n
+            header = header // ",q" // int_str(i)
+        end do
+        do i = 1, n
+            header = header // ",p" // int_str(i)
+        end do
+        header = header // ",energy_error,constraint_residual,velocity_residual"
+    end function samples_header
+
+    !> Rename a file (POSIX rename: atomic within a file system).
+    logical function rename_file(old, new) result(ok)
+        character(len=*), intent(in) :: old, new
+        ok = c_rename(old // c_null_char, new // c_null_char) == 0
+    end function rename_file
+
+    !> Create the results file `path` for a run of `ids` with n coordinates, or reopen it
+    !! with `resume`. `description` (one line) describes the run; a resumed file must have
+    !! been written with the same. `skip(k)` is true for the trajectories `ids(k)` that
+    !! already have their row. The timing log `timing_path` ("" for none) is appended to.
+    !! Fails with HOLOSYM_INVALID_ARGUMENT, changing no file, when the results file exists
+    !! without `resume`, cannot be created, or holds anything but complete rows of these
+    !! ids written with this description (a row cut short at the end of the file is the
+    !! trace of a killed run: it is dropped, and the file rewritten without it).
+    subroutine sink_open(self, path, timing_path, description, n, ids, resume, skip, status)
+        class(ensemble_csv_sink), intent(inout) :: self !! the sink
+        character(len=*), intent(in) :: path        !! results file
+        character(len=*), intent(in) :: timing_path !! timing log, "" for none
+        character(len=*), intent(in) :: description !! one line describing the run
+        integer, intent(in) :: n                    !! coordinates of the system
+        integer, intent(in) :: ids(:)               !! ids of the trajectories
+        logical, intent(in) :: resume               !! reopen an existing file
+        logical, allocatable, intent(out) :: skip(:) !! trajectories with a row already
+        type(holosym_status_t), intent(out) :: status !! outcome
+        type(csv_text_t), allocatable :: lines(:), fields(:)
+        character(len=:), allocatable :: message, temporary
+        character(len=256) :: io_message
+        integer, allocatable :: order(:)
+        integer :: ios, i, id, k, position, kept, unit
+        logical :: exists, truncated
+
+        call set_status(status, HOLOSYM_SUCCESS, "")
+        allocate (skip(size(ids)))
+        skip = .false.
+        if (.not. allocated(self%label)) self%label = ""
+        if (.not. allocated(self%samples_dir)) self%samples_dir = ""
+        if (index(description, new_line("a")) > 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "the description must be one line")
+            return
+        end if
+        inquire (file=path, exist=exists)
+        if (exists .and. .not. resume) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "results file '" // path // &
+                "' exists; resume the run (--resume) or remove it (nothing was changed)")
+            return
+        end if
+        self%path = path
+        self%description = description
+        self%n = n
+        self%expected_rows = size(ids)
+        self%rows = 0
+        truncated = .false.
+        kept = 0
+        if (exists) then
+            call read_text_lines(path, lines, ios, message)
+            if (ios /= 0) then
+                call fail("cannot read '" // path // "': " // message)
+                return
+            end if
+            if (size(lines) < 2) then
+                call fail("'" // path // "' has no header; it is not the results file of a " // &
+                    "run (nothing was changed)")
+                return
+            end if
+            if (lines(1)%text /= "# " // description) then
+                call fail("'" // path // "' was written by another run: its first line is '" &
+                    // lines(1)%text // "', this run's '# " // description // &
+                    "' (nothing was changed)")
+                return
+            end if
+            if (lines(2)%text /= result_header(n)) then
+                call fail("'" // path // "': line 2 is not the results header " // &
+                    "(nothing was changed)")
+                return
+            end if
+            order = sorted_order(ids)
+            do i = 3, size(lines)
+                call parse_csv_fields(lines(i)%text, fields, ios)
+                if (ios /= 0 .or. size(fields) /= 2 * n + 9) then
+                    if (i == size(lines)) then
+                        truncated = .true.
+                        exit
+                    end if
+                    call fail("'" // path // "':" // int_str(i) // ": not a complete " // &
+                        "results row (nothing was changed)")
+                    return
+                end if
+                if (.not. integer_field(fields(1)%text, id)) then
+                    call fail("'" // path // "':" // int_str(i) // ": bad id '" // &
+                        fields(1)%text // "' (nothing was changed)")
+                    return
+                end if
+                position = find_sorted(id)
+                if (position == 0) then
+                    call fail("'" // path // "':" // int_str(i) // ": id " // int_str(id) // &
+                        " is not among the trajectories of this run (nothing was changed)")
+                    return
+                end if
+                if (skip(position)) then
+                    call fail("'" // path // "':" // int_str(i) // ": a second row for id " // &
+                        int_str(id) // " (nothing was changed)")
+                    return
+                end if
+                skip(position) = .true.
+                kept = kept + 1
+            end do
+            if (truncated) then
+                ! Drop the cut row: write the complete lines to a new file, rename it over.
+                temporary = path // ".resume.tmp"
+                open (newunit=unit, file=temporary, status="replace", action="write", &
+                      iostat=ios, iomsg=io_message)
+                if (ios == 0) then
+                    do i = 1, size(lines) - 1
+                        write (unit, '(a)', iostat=ios, iomsg=io_message) lines(i)%text
+                        if (ios /= 0) exit
+                    end do
+                    close (unit)
+                end if
+                if (ios /= 0) then
+                    call fail("cannot write '" // temporary // "': " // trim(io_message))
+                    return
+                end if
+                if (.not. rename_file(temporary, path)) then
+                    call fail("cannot rename '" // temporary // "' to '" // path // "'")
+                    return
+                end if
+            end if
+            open (newunit=self%unit, file=path, status="old", position="append", &
+                  action="write", iostat=ios, iomsg=io_message)
+            self%unit_open = ios == 0
+        else
+            open (newunit=self%unit, file=path, status="new", action="write", iostat=ios, &
+                  iomsg=io_message)
+            self%unit_open = ios == 0
+            if (ios == 0) write (self%unit, '(a)', iostat=ios, iomsg=io_message) &
+                "# " // description
+            if (ios == 0) write (self%unit, '(a)', iostat=ios, iomsg=io_message) &
+                result_header(n)
+            if (ios == 0) flush (self%unit, iostat=ios)
+        end if
+        if (ios /= 0) then
+            call fail("cannot write results file '" // path // "': " // trim(io_message))
+            return
+        end if
+        self%rows = kept
+        self%timing_path = timing_path
+        if (len(timing_path) > 0) then
+            inquire (file=timing_path, exist=exists)
+            open (newunit=self%timing_unit, file=timing_path, position="append", &
+                  action="write", iostat=ios, iomsg=io_message)
+            self%timing_open = ios == 0
+            if (ios == 0 .and. .not. exists) write (self%timing_unit, '(a)', iostat=ios) &
+                "id,cpu_seconds,wall_seconds"
+            if (ios /= 0) then
+                close (self%unit)
+                self%unit_open = .false.
+                call fail("cannot write timing log '" // timing_path // "': " // &
+                    trim(io_message))
+                return
+            end if
+        end if
+        if (truncated .and. self%progress_unit >= 0) write (self%progress_unit, '(a)') &
+            self%label // "dropped the last row of '" // path // "', cut short by the " // &
+            "interrupted run"
+        self%to_do = count(.not. skip)
+        self%done = 0
+        self%failed = 0
+        self%io_status = 0
+        call system_clock(self%clock_start, self%clock_rate)
+        self%clock_last = self%clock_start
+
+    contains
+
+        subroutine fail(what)
+            character(len=*), intent(in) :: what
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, what)
+            skip = .false.
+        end subroutine fail
+
+        !> Index k with ids(k) == key, 0 if none (binary search in `order`).
+        integer function find_sorted(key) result(found)
+            integer, intent(in) :: key
+            integer :: low, high, middle
+            found = 0
+            low = 1
+            high = size(order)
+            do while (low <= high)
+                middle = (low + high) / 2
+                if (ids(order(middle)) == key) then
+                    found = order(middle)
+                    return
+                else if (ids(order(middle)) < key) then
+                    low = middle + 1
+                else
+                    high = middle - 1
+                end if
+            end do
+        end function find_sorted
+
+    end subroutine sink_open
+
+    !> Write the row of a completed trajectory and flush it; the timing log likewise; a
+    !! progress line at most every `progress_interval` seconds and after the last one.
+    !! A write failure halts the run (`finish` reports it).
+    subroutine sink_completed(self, result, halt)
+        class(ensemble_csv_sink), intent(inout) :: self !! the sink
+        type(ensemble_result_t), intent(in) :: result   !! the completed trajectory
+        logical, intent(inout) :: halt                  !! set on a write failure
+        character(len=256) :: io_message
+        character(len=32) :: rate_text, left_text
+        integer(int64) :: clock_now
+        real(wp) :: elapsed, rate
+        integer :: ios
+
+        write (self%unit, '(a)', iostat=ios, iomsg=io_message) result_row(result)
+        if (ios == 0) flush (self%unit, iostat=ios)
+        if (ios /= 0) then
+            self%io_status = ios
+            self%io_message = "writing '" // self%path // "' failed: " // trim(io_message)
+            halt = .true.
+            return
+        end if
+        self%rows = self%rows + 1
+        self%done = self%done + 1
+        if (result%code /= HOLOSYM_SUCCESS) self%failed = self%failed + 1
+        if (self%timing_open) then
+            write (self%timing_unit, '(a)', iostat=ios) int_str(result%id) // "," // &
+                seconds_text(result%cpu_seconds) // "," // seconds_text(result%wall_seconds)
+            flush (self%timing_unit, iostat=ios)
+        end if
+        if (self%progress_unit < 0) return
+        call system_clock(clock_now)
+        elapsed = real(clock_now - self%clock_last, wp) / self%clock_rate
+        if (elapsed < self%progress_interval .and. self%done < self%to_do) return
+        self%clock_last = clock_now
+        elapsed = real(clock_now - self%clock_start, wp) / self%clock_rate
+        rate = self%done / max(elapsed, epsilon(1.0_wp))
+        rate_text = seconds_text(rate, '(f0.2)')
+        left_text = seconds_text((self%to_do - self%done) / max(rate, tiny(1.0_wp)), '(f0.0)')
+        write (self%progress_unit, '(a)') self%label // int_str(self%done) // "/" // &
+            int_str(self%to_do) // " trajectories done (" // int_str(self%failed) // &
+            " failed), " // trim(rate_text) // "/s, about " // trim(left_text) // " s left"
+        flush (self%progress_unit)
+    end subroutine sink_completed
+
+    !> Seconds as text with a leading zero (microseconds, or the given format).
+    function seconds_text(seconds, format) result(text)
+        real(wp), intent(in) :: seconds
+        character(len=*), intent(in), optional :: format
+        character(len=:), allocatable :: text
+        character(len=32) :: buffer
+        if (present(format)) then
+            write (buffer, format) seconds
+        else
+            write (buffer, '(f0.6)') seconds
+        end if
+        text = trim(buffer)
+        if (len(text) >= 2) then
+            if (text(len(text):) == ".") text = text(:len(text) - 1)
+        end if
+        if (text(1:1) == ".") text = "0" // text
+        if (len(text) >= 2) then
+            if (text(1:2) == "-.") text = "-0" // text(2:)
+        end if
+    end function seconds_text
+
+    !> Write `samples_dir/<id>.csv` (header, then one row per sample) to a temporary file
+    !! and rename it: a sample file is either complete or absent. Nothing is written when
+    !! `samples_dir` is "". Fails with HOLOSYM_INVALID_ARGUMENT on an I/O error.
+    subroutine sink_store_samples(self, result, status)
+        class(ensemble_csv_sink), intent(in) :: self  !! the sink
+        type(ensemble_result_t), intent(in) :: result !! the trajectory with its samples
+        type(holosym_status_t), intent(out) :: status !! outcome
+        character(len=:), allocatable :: path, temporary, line
+        character(len=256) :: io_message
+        integer :: unit, ios, j, i
+
+        call set_status(status, HOLOSYM_SUCCESS, "")
+        if (.not. allocated(self%samples_dir)) return
+        if (len(self%samples_dir) == 0 .or. .not. allocated(result%samples)) return
+        path = self%samples_dir // "/" // int_str(result%id) // ".csv"
+        temporary = path // ".part"
+        open (newunit=unit, file=temporary, status="replace", action="write", iostat=ios, &
+              iomsg=io_message)
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=io_message) &
+            samples_header(size(result%q))
+        do j = 1, size(result%samples, 2)
+            if (ios /= 0) exit
+            line = real_text(result%samples(1, j))
+            do i = 2, size(result%samples, 1)
+                line = line // "," // real_text(result%samples(i, j))
+            end do
+            write (unit, '(a)', iostat=ios, iomsg=io_message) line
+        end do
+        if (ios == 0) close (unit, iostat=ios, iomsg=io_message)
+        if (ios /= 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot write '" // temporary // &
+                "': " // trim(io_message))
+            return
+        end if
+        if (.not. rename_file(temporary, path)) call set_status(status, &
+            HOLOSYM_INVALID_ARGUMENT, "cannot rename '" // temporary // "' to '" // path // "'")
+    end subroutine sink_store_samples
+
+    !> Trajectories written in this run that failed.
+    integer function sink_failures(self) result(failed)
+        class(ensemble_csv_sink), intent(in) :: self !! the sink
+        failed = self%failed
+    end function sink_failures
+
+    !> Close the files. When the results file has a row for every trajectory, rewrite it with
+    !! the rows in ascending id order (temporary file renamed over it). Fails with
+    !! HOLOSYM_INVALID_ARGUMENT when a write failed during the run or now; the rows written
+    !! are kept either way.
+    subroutine sink_finish(self, status)
+        class(ensemble_csv_sink), intent(inout) :: self !! the sink
+        type(holosym_status_t), intent(out) :: status   !! outcome
+        type(csv_text_t), allocatable :: lines(:), fields(:)
+        character(len=:), allocatable :: message, temporary
+        character(len=256) :: io_message
+        integer, allocatable :: keys(:), order(:)
+        integer :: ios, i, unit
+
+        call set_status(status, HOLOSYM_SUCCESS, "")
+        if (self%unit_open) close (self%unit)
+        self%unit_open = .false.
+        if (self%timing_open) close (self%timing_unit)
+        self%timing_open = .false.
+        if (self%io_status /= 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, self%io_message)
+            return
+        end if
+        if (self%rows /= self%expected_rows) return
+        call read_text_lines(self%path, lines, ios, message)
+        if (ios /= 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot read '" // self%path // &
+                "' to sort it: " // message)
+            return
+        end if
+        allocate (keys(size(lines) - 2))
+        do i = 3, size(lines)
+            call parse_csv_fields(lines(i)%text, fields, ios)
+            if (.not. integer_field(fields(1)%text, keys(i - 2))) keys(i - 2) = huge(1)
+        end do
+        order = sorted_order(keys)
+        if (all(order == [(i, i = 1, size(order))])) return
+        temporary = self%path // ".sort.tmp"
+        open (newunit=unit, file=temporary, status="replace", action="write", iostat=ios, &
+              iomsg=io_message)
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=io_message) lines(1)%text
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=io_message) lines(2)%text
+        do i = 1, size(order)
+            if (ios /= 0) exit
+            write (unit, '(a)', iostat=ios, iomsg=io_message) lines(order(i) + 2)%text
+        end do
+        if (ios == 0) close (unit, iostat=ios, iomsg=io_message)
+        if (ios /= 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot write '" // temporary // &
+                "' (the unsorted rows are kept in '" // self%path // "'): " // trim(io_message))
+            return
+        end if
+        if (.not. rename_file(temporary, self%path)) call set_status(status, &
+            HOLOSYM_INVALID_ARGUMENT, "cannot rename '" // temporary // "' to '" // self%path &
+            // "' (the unsorted rows are kept)")
+    end subroutine sink_finish
+
+end module holosym_ensemble_files
