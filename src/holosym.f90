@@ -18,7 +18,13 @@
 !! - [[constrained_integrator]]: `init`, `step`, `integrate`, `dense_output`, the settings
 !!   and the work counters `stats` ([[integrator_stats_t]]).
 !! - [[step_info_t]], [[step_observer]]: diagnostics of one step; the observer that
-!!   `integrate` calls after each step.
+!!   `integrate` calls after each step, whose component `dense` ([[step_dense_output]])
+!!   evaluates the step just taken at any time inside it.
+!! - [[trajectory_writer]], [[trajectory_header]]: an observer writing the run as CSV with
+!!   the columns of `holosym simulate` (17 or 36 digits, every k steps or at requested
+!!   times); [[energy_monitor]]: an observer recording max |dH/H0|, max |phi|,
+!!   max |Phi H_p| and Newton iterations (docs/user_system.md).
+!! - [[state_from_velocities]]: a state on the manifold from positions and velocities.
 !! - [[newton_settings_t]], [[newton_report_t]]: the Newton settings of an integrator
 !!   (`integ%newton`) and what one solve did; [[nonlinear_system]], [[newton_solve]],
 !!   [[newton_workspace_t]], `LINEAR_SOLVER_NATIVE`, `LINEAR_SOLVER_MIXED`: Newton's method
@@ -32,7 +38,10 @@
 !!   the constraint residuals of a state; the rank test of Phi.
 !! - [[spherical_pendulum]], [[spring_linkage]], [[planar_pendulum]],
 !!   [[pendulum_chain]]: the paper's example systems, a planar pendulum and a chain of
-!!   planar pendula (the double pendulum for two links).
+!!   planar pendula (the double pendulum for two links); [[sphere_dumbbell]],
+!!   [[magnetic_sphere]], [[generic_pendulum]]: two bodies on a sphere joined by a rod, a
+!!   charged particle on a sphere in a magnetic field (H not separable), a spherical
+!!   pendulum in a potential without symmetry (docs/models.md).
 !! - [[rattle_integrator]], [[rattle_stats_t]], [[composition_coefficients]],
 !!   `rattle_max_order`: the RATTLE baseline and its symmetric compositions.
 !! - [[run_ensemble]], [[ensemble_settings_t]], [[ensemble_states_t]],

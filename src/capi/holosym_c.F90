@@ -12,7 +12,11 @@
 !! failure: the HOLOSYM_* codes) and keeps the caller's arrays unchanged on failure. A
 !! callback returns 0 on success; any other value makes the library see NaN, fail the
 !! step with HOLOSYM_NONFINITE_VALUE and name the callback and its value in the message.
+!!
+!! A real128 build with a compiler other than gfortran has no C kind for the library's
+!! reals: the module then holds only `c_interface_available = .false.`.
 module holosym_c
+#if defined(HOLOSYM_REAL64) || defined(__GFORTRAN__)
     use, intrinsic :: iso_c_binding, only: c_int, c_char, c_ptr, c_funptr, c_null_ptr, &
         c_null_char, c_associated, c_f_pointer, c_f_procpointer, c_loc, c_double
 #ifndef HOLOSYM_REAL64
@@ -29,6 +33,8 @@ module holosym_c
     private
 
     public :: holosym_system_c, c_real
+    !> True: this build has the C interface.
+    logical, parameter, public :: c_interface_available = .true.
     public :: holosym_create, holosym_destroy, holosym_status, holosym_message, holosym_step, &
         holosym_integrate, holosym_dense_output, holosym_project
 
@@ -540,4 +546,10 @@ contains
         holosym_project = finish(handle, status)
     end function holosym_project
 
+#else
+    implicit none
+    private
+    !> False: a real128 build needs gfortran's c_float128 for the C interface.
+    logical, parameter, public :: c_interface_available = .false.
+#endif
 end module holosym_c
