@@ -203,9 +203,15 @@ contains
         integer, intent(in) :: err_unit                !! progress lines
         type(holosym_status_t), intent(out) :: status  !! outcome
         real(wp) :: span, linkage_span
-        integer :: exit_code
-        call execute_command_line("mkdir -p '" // options%out_dir // "'", exitstat=exit_code)
-        if (exit_code /= 0) then
+        integer :: exit_code, command_status
+        character(len=256) :: command_message
+        ! With cmdstat present a failed command is reported, not fatal (some compilers
+        ! stop the program on a non-zero exit status otherwise).
+        exit_code = 0
+        command_message = ""
+        call execute_command_line("mkdir -p '" // options%out_dir // "'", exitstat=exit_code, &
+                                  cmdstat=command_status, cmdmsg=command_message)
+        if (exit_code /= 0 .or. command_status /= 0) then
             call fail(status, "cannot create the directory '" // options%out_dir // "'")
             return
         end if
