@@ -1,4 +1,5 @@
-!> The C interface of holosym (declared in include/holosym.h): an integrator for a system
+!> category: C interface (include/holosym.h)
+!! The C interface of holosym (declared in include/holosym.h): an integrator for a system
 !! given by C callbacks, with step, integrate (with an optional C observer), dense output,
 !! projection onto the manifold, status code and message.
 !!

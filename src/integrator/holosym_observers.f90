@@ -1,4 +1,5 @@
-!> The two observers that every user of `integrate` writes otherwise: a trajectory writer
+!> category: internal module (use holosym)
+!! The two observers that every user of `integrate` writes otherwise: a trajectory writer
 !! (CSV with the columns of `holosym simulate`) and an energy and constraint monitor.
 !!
 !!     type(trajectory_writer) :: writer

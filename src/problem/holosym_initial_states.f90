@@ -1,4 +1,5 @@
-!> A consistent start state from what a user knows: positions that nearly satisfy the
+!> category: internal module (use holosym)
+!! A consistent start state from what a user knows: positions that nearly satisfy the
 !! constraints, and velocities q' instead of momenta.
 !!
 !! `state_from_velocities(sys, q, velocity, p)`:

@@ -1,4 +1,5 @@
-!> Two bodies on a sphere joined by a rod: a dumbbell sliding on a sphere in gravity.
+!> category: internal module (use holosym)
+!! Two bodies on a sphere joined by a rod: a dumbbell sliding on a sphere in gravity.
 !!
 !! Point masses m_1, m_2 at r_1, r_2 in R^3, both on the sphere |r| = R about the origin and
 !! a rod of length L between them; uniform gravity g along -z.

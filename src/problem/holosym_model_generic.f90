@@ -1,4 +1,5 @@
-!> A spherical pendulum in a generic potential, without rotational symmetry.
+!> category: internal module (use holosym)
+!! A spherical pendulum in a generic potential, without rotational symmetry.
 !!
 !! q = (x, y, z) on the sphere |q| = R, mass m, and
 !!     H = |p|^2/(2 m) + U(q),

@@ -1,4 +1,5 @@
-!> A charged particle on a sphere in a uniform magnetic field and gravity: a Hamiltonian
+!> category: internal module (use holosym)
+!! A charged particle on a sphere in a uniform magnetic field and gravity: a Hamiltonian
 !! that is not separable (dH/dp depends on q).
 !!
 !! With the vector potential A(q) = (B/2) (-y, x, 0) of the field B e_z (B is charge times
