@@ -113,7 +113,7 @@ contains
             "  --out DIR         directory of the CSV files (created)", &
             "  --figure LIST     comma-separated names above, or all (default all)", &
             "  --long-steps N    steps of the long run, N >= 100 (default 100000)", &
-            "  --quick           short runs (the test suite's variant): 20 s spans,", &
+            "  --quick           short runs (the test suite's variant): 20 s (linkage 10 s),", &
             "                    2000 long-run steps, M <= 4 and h >= 1/16 for convergence", &
             "  --help            this text"])
     end function figures_help
