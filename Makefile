@@ -24,6 +24,14 @@
 #                             docs/performance.md (about an hour of CPU on one core)
 #   make bench-long           the long runs against heyoka (about an hour), then the report
 #   make bench-quick          the whole bench pipeline in a few minutes (build/bench-quick)
+# Figures, models, C interface:
+#   make figures              every figure of docs/figures.md: CSV from `holosym figures`
+#                             into build/figures, PNG into docs/figures (matplotlib in
+#                             build/venv); FIGURES_PNG=DIR draws elsewhere (CI)
+#   make reference            the models' 50-digit reference solutions (mpmath, ~10 min)
+#                             into test/data/model_reference.csv
+#   make c-example            example/c built with gcc against the real128 library and run
+#   make c-example64          the same with the real64 library (double)
 # Ensembles and MPI:
 #   make test-mpi             the MPI build (installs OpenMPI) and its tests: ensembles and
 #                             tables cells on 1-3 ranks give the serial files byte for byte
@@ -44,6 +52,12 @@ BENCH_VENV ?= build/venv
 BENCH_PYTHON = $(BENCH_VENV)/bin/python
 # The real64 build of the whole library (see src/core/holosym_kinds.F90).
 REAL64_FLAGS ?= --flag "-DHOLOSYM_REAL64"
+# The figures' and reference solutions' Python (matplotlib, mpmath), made by
+# tools/python_venv.sh (the same environment as the benchmark's).
+VENV ?= build/venv
+FIGURES_DATA ?= build/figures
+FIGURES_PNG ?= docs/figures
+FIGURES_ARGS ?=
 PREFIX ?= /usr/local
 # Fortran modules are installed under $(PREFIX)/$(MODULE_DIR).
 MODULE_DIR ?= include/holosym
@@ -55,7 +69,8 @@ CMAKE_DIR ?= build/cmake
 .PHONY: all deps include-digest test test64 tables bench bench-long bench-quick bench-report \
 	pendulum linkage examples clean install check-install check-fpm-install cmake-deps \
 	cmake-test flang-deps test-flang check-examples check-version check-fpm-dependency \
-	profile docs docs-deps docs-tables docs-stability docs-performance mpi test-mpi scaling
+	profile docs docs-deps docs-tables docs-stability docs-performance mpi test-mpi scaling \
+	venv figures reference c-example c-example64
 
 all: test
 
@@ -131,6 +146,29 @@ bench-quick: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- bench --summarize build/bench-quick > /dev/null
 	BENCH_VENV=$(BENCH_VENV) ./tools/plot_bench.sh build/bench-quick
 
+# Python with matplotlib and mpmath, for the figures and the reference solutions.
+venv:
+	@./tools/python_venv.sh $(VENV) matplotlib mpmath
+
+# Data of every figure from the library through the CLI, then the PNGs, then a check that
+# each PNG was drawn.
+figures: deps include-digest venv
+	$(FPM) run $(FPM_FLAGS) -- figures --out $(FIGURES_DATA) $(FIGURES_ARGS)
+	$(VENV)/bin/python tools/plot_figures.py $(FIGURES_DATA) $(FIGURES_PNG)
+	./tools/check_figures.sh $(FIGURES_PNG)
+
+# The models' independent reference states (50-digit index-1 solutions; ~10 minutes).
+reference: venv
+	$(VENV)/bin/python tools/reference/model_reference.py test/data/model_reference.csv
+
+# The C example against the installed library, built with gcc and run (fails on a failed
+# check).
+c-example: deps include-digest
+	./tools/c_example.sh real128
+
+c-example64: deps include-digest
+	./tools/c_example.sh real64
+
 pendulum: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- simulate --system pendulum $(SIMULATE_ARGS)
 
@@ -142,6 +180,7 @@ examples: deps include-digest
 	$(FPM) run $(FPM_FLAGS) --example spherical_pendulum
 	$(FPM) run $(FPM_FLAGS) --example spring_linkage
 	$(FPM) run $(FPM_FLAGS) --example planar_pendulum
+	$(FPM) run $(FPM_FLAGS) --example double_pendulum_start
 	$(FPM) run $(FPM_FLAGS) --example pendulum_ensemble
 
 # The MPI build: the holosym-mpi package in mpi/ (OpenMPI's mpifort; the default build

@@ -15,6 +15,7 @@ module holosym_cli
     use holosym_cli_extremes, only: extremes_command
     use holosym_cli_ensemble, only: ensemble_command
     use holosym_task_farm, only: task_farm
+    use holosym_cli_figures, only: figures_command
     implicit none
     private
 
@@ -44,6 +45,7 @@ contains
             "  bench      work-precision benchmark against composed RATTLE; speed options", &
             "  extremes   stability at the extremes: long runs, tiny/large steps, high orders", &
             "  ensemble   many trajectories in parallel (threads or MPI ranks), resumable", &
+            "  figures    the data of the figures in docs/figures.md, as CSV", &
             "", &
             "Run 'holosym COMMAND --help' (or 'holosym help COMMAND') for a command's options.", &
             "'holosym --version' prints the version.", &
@@ -106,6 +108,8 @@ contains
             call extremes_command(args, out_unit, err_unit, exit_code)
         case ("ensemble")
             call ensemble_command(args, out_unit, err_unit, exit_code, farm)
+        case ("figures")
+            call figures_command(args, out_unit, err_unit, exit_code)
         case default
             write (err_unit, '(a)') "holosym: unknown command '" // name // &
                 "'; run 'holosym --help' for the list of commands"

@@ -13,6 +13,7 @@ module holosym_cli_simulate
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_manifold, only: manifold_residuals
+    use holosym_observers, only: trajectory_header
     use holosym_systems, only: make_system, is_system_name, system_names, system_choices, &
         default_links, max_links
     use holosym_cli_common, only: parsed_command_proceeds, &
@@ -139,7 +140,13 @@ contains
             "                 linkage:  spring-linkage mechanism, Example 2 (n = 6, m = 3)", &
             "                 planar:   planar pendulum (n = 2, m = 1)", &
             "                 chain:    K planar pendula in a chain (n = 2K, m = K), links", &
-            "                           at 0.5 rad from the vertical, at rest  [pendulum]", &
+            "                           at 0.5 rad from the vertical, at rest", &
+            "                 double:   double pendulum, masses 1, 2, rods 1, 0.7 (n = 4, m = 2)", &
+            "                 dumbbell: two bodies on a sphere joined by a rod (n = 6, m = 3)", &
+            "                 magnetic: charged particle on a sphere in a magnetic field,", &
+            "                           H not separable (n = 3, m = 1)", &
+            "                 generic:  spherical pendulum in a potential without rotational", &
+            "                           symmetry (n = 3, m = 1)              [pendulum]", &
             "  --links K      links of the chain, 1 to 100000; cost and memory per step", &
             "                 grow linearly with K                           [8]", &
             "  --M INT        degree of the displacement polynomial, >= 1    [2]", &
@@ -338,19 +345,8 @@ contains
         integer, intent(in) :: n !! number of coordinates
         integer, intent(in) :: m !! number of constraints
         character(len=:), allocatable :: header !! the header line
-        integer :: i
-        header = "t"
-        do i = 1, n
-            header = header // ",q" // int_str(i)
-        end do
-        do i = 1, n
-            header = header // ",p" // int_str(i)
-        end do
-        do i = 1, m
-            header = header // ",lambda" // int_str(i)
-        end do
-        header = header // ",H,energy_error,constraint_residual,velocity_residual," // &
-            "newton_iterations"
+        ! One definition of the columns, shared with the library's trajectory_writer.
+        header = trajectory_header(n, m)
     end function csv_header
 
     !> Run `simulate` with parsed settings: CSV to `out_unit` (or to `config%output`),

@@ -48,7 +48,7 @@ module holosym_cli_tables
 
     !> Options of `holosym tables`.
     type :: tables_options_t
-        character(len=:), allocatable :: system  !! pendulum, linkage or planar
+        character(len=:), allocatable :: system  !! a name of holosym_systems
         real(wp) :: span = 10                    !! T
         real(wp), allocatable :: step_sizes(:)   !! h list, largest first
         integer :: max_m = default_max_order     !! largest M
@@ -103,7 +103,8 @@ contains
             "of Gauss points (Table 3). Markdown on stdout, progress on stderr.", &
             "", &
             "Options:", &
-            "  --system NAME   pendulum (default), linkage or planar", &
+            "  --system NAME   pendulum (default), linkage, planar, double, dumbbell,", &
+            "                  magnetic or generic (see holosym simulate --help)", &
             "  --T T           time span of every run (default 10)", &
             "  --h LIST        step sizes, largest first, comma separated", &
             "                  (default 0.5,0.25,0.125,0.0625,0.03125)", &

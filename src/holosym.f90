@@ -18,7 +18,13 @@
 !! - [[constrained_integrator]]: `init`, `step`, `integrate`, `dense_output`, the settings
 !!   and the work counters `stats` ([[integrator_stats_t]]).
 !! - [[step_info_t]], [[step_observer]]: diagnostics of one step; the observer that
-!!   `integrate` calls after each step.
+!!   `integrate` calls after each step, whose component `dense` ([[step_dense_output]])
+!!   evaluates the step just taken at any time inside it.
+!! - [[trajectory_writer]], [[trajectory_header]]: an observer writing the run as CSV with
+!!   the columns of `holosym simulate` (17 or 36 digits, every k steps or at requested
+!!   times); [[energy_monitor]]: an observer recording max |dH/H0|, max |phi|,
+!!   max |Phi H_p| and Newton iterations (docs/user_system.md).
+!! - [[state_from_velocities]]: a state on the manifold from positions and velocities.
 !! - [[newton_settings_t]], [[newton_report_t]]: the Newton settings of an integrator
 !!   (`integ%newton`) and what one solve did; [[nonlinear_system]], [[newton_solve]],
 !!   [[newton_workspace_t]], `LINEAR_SOLVER_NATIVE`, `LINEAR_SOLVER_MIXED`: Newton's method
@@ -32,7 +38,10 @@
 !!   the constraint residuals of a state; the rank test of Phi.
 !! - [[spherical_pendulum]], [[spring_linkage]], [[planar_pendulum]],
 !!   [[pendulum_chain]]: the paper's example systems, a planar pendulum and a chain of
-!!   planar pendula (the double pendulum for two links).
+!!   planar pendula (the double pendulum for two links); [[sphere_dumbbell]],
+!!   [[magnetic_sphere]], [[generic_pendulum]]: two bodies on a sphere joined by a rod, a
+!!   charged particle on a sphere in a magnetic field (H not separable), a spherical
+!!   pendulum in a potential without symmetry (docs/models.md).
 !! - [[rattle_integrator]], [[rattle_stats_t]], [[composition_coefficients]],
 !!   `rattle_max_order`: the RATTLE baseline and its symmetric compositions.
 !! - [[run_ensemble]], [[ensemble_settings_t]], [[ensemble_states_t]],
@@ -77,14 +86,19 @@ module holosym
         full_rank_constraints
     use holosym_projection, only: project_to_manifold, projection_report_t, &
         projection_max_iterations_default
+    use holosym_initial_states, only: state_from_velocities
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
     use holosym_model_chain, only: pendulum_chain
+    use holosym_model_dumbbell, only: sphere_dumbbell
+    use holosym_model_magnetic, only: magnetic_sphere
+    use holosym_model_generic, only: generic_pendulum
     use holosym_newton, only: nonlinear_system, newton_solve, newton_settings_t, &
         newton_report_t, newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
     use holosym_scheme, only: discrete_scheme, scheme_counters_t, unknown_count, &
         JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer, &
-        integrator_stats_t
+        integrator_stats_t, step_dense_output
+    use holosym_observers, only: trajectory_writer, energy_monitor, trajectory_header
     use holosym_rattle, only: rattle_integrator, rattle_stats_t, composition_coefficients, &
         rattle_max_order
     use holosym_task_farm, only: farm_job, task_farm, openmp_farm
@@ -112,11 +126,15 @@ module holosym
     public :: gauss_legendre, gauss_lobatto
     public :: lagrange_values, lagrange_derivatives, lagrange_matrices
     ! The problem: the abstract system to extend, its default (difference) Hessians, the
-    ! constraint manifold, projection onto it, and the paper's models.
+    ! constraint manifold, projection onto it, the paper's models and the catalogue beyond
+    ! them (chain and double pendulum, dumbbell on a sphere, charged particle in a magnetic
+    ! field, pendulum in a generic potential).
     public :: constrained_hamiltonian, difference_hessian, difference_constraint_hessian
     public :: manifold_residuals, manifold_tolerance_default, full_rank_constraints
     public :: project_to_manifold, projection_report_t, projection_max_iterations_default
+    public :: state_from_velocities
     public :: spherical_pendulum, spring_linkage, planar_pendulum, pendulum_chain
+    public :: sphere_dumbbell, magnetic_sphere, generic_pendulum
     ! Solvers: dense LU (working precision; real64 through LAPACK) and Newton's method on
     ! any `nonlinear_system`.
     public :: lu_factor, lu_solve, default_pivot_tolerance
@@ -129,8 +147,12 @@ module holosym
     public :: discrete_scheme, scheme_counters_t, unknown_count
     public :: JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, &
         HESSIANS_DIFFERENCES
-    ! The integrator, its per-step diagnostics, observer and work counters.
-    public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t
+    ! The integrator, its per-step diagnostics, observer (with the dense output of the step
+    ! just taken) and work counters; the ready-made observers: CSV trajectory writer and
+    ! energy/constraint monitor.
+    public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t, &
+        step_dense_output
+    public :: trajectory_writer, energy_monitor, trajectory_header
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order
     ! Parallel work: a task farm (OpenMP threads here; MPI ranks with holosym-mpi) and the

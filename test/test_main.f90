@@ -23,6 +23,10 @@ program holosym_tests
     use test_api, only: api_tests
     use test_reduced, only: reduced_tests
     use test_ensemble, only: ensemble_tests
+    use test_models, only: models_tests
+    use test_observers, only: observers_tests
+    use test_figures, only: figures_tests
+    use test_capi, only: capi_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed, skipped
@@ -55,6 +59,10 @@ program holosym_tests
     call run_suite("bench", bench_tests(), filter, passed, failed, skipped)
     call run_suite("reduced", reduced_tests(), filter, passed, failed, skipped)
     call run_suite("ensemble", ensemble_tests(), filter, passed, failed, skipped)
+    call run_suite("models", models_tests(), filter, passed, failed, skipped)
+    call run_suite("observers", observers_tests(), filter, passed, failed, skipped)
+    call run_suite("figures", figures_tests(), filter, passed, failed, skipped)
+    call run_suite("capi", capi_tests(), filter, passed, failed, skipped)
     if (passed + failed + skipped == 0) then
         write (error_unit, '(a)') "holosym_tests: no test matches '" // trim(filter) // &
             "' (a test is selected when its suite/name contains the filter, e.g. scheme/)"

@@ -1,4 +1,4 @@
-!> Ensembles: many trajectories of one system, each from its own initial state, integrated
+!> Ensembles are many trajectories of one system, each from its own initial state, integrated
 !! independently and in parallel by a task farm (threads of this process by default, MPI
 !! ranks with the holosym-mpi package).
 !!

@@ -49,7 +49,8 @@ module holosym_integrator
     implicit none
     private
 
-    public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t
+    public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t, &
+        step_dense_output
 
     !> Default `linear_solver`: real64 LAPACK factors of a real64 Jacobian, refined with the
     !! working-precision residual ('lapack' names the same in the real64 build).
@@ -111,8 +112,30 @@ module holosym_integrator
         integer(int64) :: hessian_evaluations = 0
     end type integrator_stats_t
 
+    !> The dense output of the step that `integrate` has just taken: q~, p~ and lambda~ at
+    !! any time of [t_start, t_end]. `integrate` sets an observer's `dense` component to it
+    !! before each call of `observe`, so output at times off the step grid needs no loop of
+    !! single steps. Valid only inside `observe`; elsewhere `evaluate` fails with
+    !! HOLOSYM_NOT_INITIALIZED.
+    type :: step_dense_output
+        !> Time at the start of the step.
+        real(wp) :: t_start = 0
+        !> Time at its end (t_start + h).
+        real(wp) :: t_end = 0
+        class(constrained_integrator), pointer, private :: integrator => null()
+    contains
+        !> q~(t), p~(t), lambda~(t) for t in [t_start, t_end].
+        procedure :: evaluate => dense_evaluate
+        !> Whether the evaluator refers to a step (inside `observe` of `integrate`).
+        procedure :: available => dense_available
+    end type step_dense_output
+
     !> Receives every step of `integrate`. Extend it; keep your data as components.
     type, abstract :: step_observer
+        !> The dense output of the step just taken, set by `integrate` before each call of
+        !! `observe` (e.g. `call self%dense%evaluate(t, q, p, lambda)` for t between
+        !! `self%dense%t_start` and `self%dense%t_end`).
+        type(step_dense_output) :: dense
     contains
         !> Called after step k (t = start_time + k h) with the new state; set `halt` to stop.
         procedure(observe_interface), deferred :: observe
@@ -803,7 +826,7 @@ contains
     !! HOLOSYM_INVALID_STEP_COUNT for steps < 0, HOLOSYM_USER_ABORT.
     subroutine integrator_integrate(self, sys, q, p, h, steps, observer, steps_done, status, &
                                     start_time)
-        class(constrained_integrator), intent(inout) :: self
+        class(constrained_integrator), intent(inout), target :: self
         class(constrained_hamiltonian), intent(in), target :: sys !! the system
         real(wp), intent(inout) :: q(:) !! coordinates (n): start in, end out
         real(wp), intent(inout) :: p(:) !! momenta (n): start in, end out
@@ -865,7 +888,11 @@ contains
             self%last_pb = p
             if (present(steps_done)) steps_done = k
             if (present(observer)) then
+                observer%dense%t_start = t0 + (k - 1) * h
+                observer%dense%t_end = t0 + k * h
+                observer%dense%integrator => self
                 call observer%observe(k, t0 + k * h, q, p, self%last_info, halt)
+                observer%dense = step_dense_output()
                 if (halt .and. k < steps) then
                     call set_status(status, HOLOSYM_USER_ABORT, "observer stopped the run after " &
                         // int_str(k) // " of " // int_str(steps) // " steps")
@@ -906,6 +933,53 @@ contains
             call set_status(status, HOLOSYM_SUCCESS, "")
         end if
     end subroutine integrator_dense_output
+
+    !> q~(t), p~(t), lambda~(t) of the step just taken, t in [t_start, t_end] (the step's
+    !! polynomials at tau = (t - t_start)/(t_end - t_start)). Codes: HOLOSYM_NOT_INITIALIZED
+    !! (called outside `observe` of `integrate`), HOLOSYM_INVALID_ARGUMENT (t outside the
+    !! step or not finite), HOLOSYM_SIZE_MISMATCH (q, p not of size n or lambda not of
+    !! size m). On failure q, p and lambda are unchanged.
+    subroutine dense_evaluate(self, t, q, p, lambda, status)
+        class(step_dense_output), intent(in) :: self
+        real(wp), intent(in) :: t            !! time in [t_start, t_end]
+        real(wp), intent(inout) :: q(:)      !! q~(t), size n
+        real(wp), intent(inout) :: p(:)      !! p~(t), size n
+        real(wp), intent(inout) :: lambda(:) !! lambda~(t), size m
+        type(holosym_status_t), intent(out), optional :: status !! outcome
+        real(wp) :: tau
+        real(wp), allocatable :: qw(:), pw(:), lw(:)
+        type(holosym_status_t) :: local
+        if (.not. associated(self%integrator)) then
+            call set_status(status, HOLOSYM_NOT_INITIALIZED, "the dense output of a step " // &
+                "is available only inside observe, during integrate")
+            return
+        end if
+        if (.not. (is_finite(t) .and. t >= min(self%t_start, self%t_end) .and. &
+                   t <= max(self%t_start, self%t_end))) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "t must be in the step [" // &
+                real_str(self%t_start) // ", " // real_str(self%t_end) // "]; got " // &
+                real_str(t))
+            return
+        end if
+        tau = (t - self%t_start) / (self%t_end - self%t_start)
+        tau = min(1.0_wp, max(0.0_wp, tau))
+        allocate (qw(size(q)), pw(size(p)), lw(size(lambda)))
+        call self%integrator%dense_output(tau, qw, pw, lw, local)
+        if (.not. local%ok()) then
+            call set_status(status, local%code, local%message)
+            return
+        end if
+        q = qw
+        p = pw
+        lambda = lw
+        call set_status(status, HOLOSYM_SUCCESS, "")
+    end subroutine dense_evaluate
+
+    !> True inside `observe` of `integrate`, when `evaluate` refers to the step just taken.
+    pure logical function dense_available(self)
+        class(step_dense_output), intent(in) :: self
+        dense_available = associated(self%integrator)
+    end function dense_available
 
     !> Diagnostics of the last successful step.
     function integrator_last_step(self) result(info)

@@ -1,4 +1,4 @@
-!> Records: the results of a farmed task as a string of bytes, so that every farm (threads
+!> Records hold the results of a farmed task as a string of bytes, so that every farm (threads
 !! or MPI ranks) moves them the same way. Values are appended with `put` and read back in
 !! the same order with `get`; the bytes are the values' memory images (exact: a real comes
 !! back bit for bit), valid between processes of the same executable.

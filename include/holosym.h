@@ -1,0 +1,117 @@
+/* holosym: C interface (src/capi/holosym_c.F90).
+ *
+ * Symplectic integration of a Hamiltonian system with holonomic constraints given by C
+ * callbacks: H(q, p), dH/dq, dH/dp, phi(q) and Phi(q) = dphi/dq.
+ *
+ * Reals: holosym_real is __float128 in the default (real128) build of the library and
+ * double when both the library and the C code are built with -DHOLOSYM_REAL64.
+ * __float128 is a compiler extension: GCC documents it for i386, x86-64, IA-64, LoongArch,
+ * hppa HP-UX and PowerPC GNU/Linux with VSX (older GCC there: -mfloat128); Clang accepts it
+ * on x86-64 too (only GCC is tested here). libquadmath (quadmath.h, -lquadmath) prints and
+ * computes with it. The Fortran side uses gfortran's c_float128 (a GNU extension of
+ * ISO_C_BINDING), so the real128 library is built with gfortran.
+ *
+ * Every function returns a status code (also kept by the handle: holosym_status,
+ * holosym_message): 0 success, < 0 invalid input, > 0 numerical failure. On failure the
+ * caller's arrays are unchanged (holosym_integrate: they hold the last good step).
+ *
+ * Link: -lholosym -lgfortran -lquadmath -llapack -lblas -lgomp -lm (see `make c-example`).
+ */
+#ifndef HOLOSYM_H
+#define HOLOSYM_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#ifdef HOLOSYM_REAL64
+typedef double holosym_real;
+#else
+typedef __float128 holosym_real;
+#endif
+
+/* Status codes (the HOLOSYM_* constants of the Fortran library). */
+#define HOLOSYM_SUCCESS 0
+#define HOLOSYM_INVALID_ORDER (-1)              /* M < 1, N < 0, G < 1 or G < N + 1 */
+#define HOLOSYM_INVALID_DIMENSION (-2)          /* n < 1, m < 0 or m >= n */
+#define HOLOSYM_SIZE_MISMATCH (-3)
+#define HOLOSYM_INVALID_STEP_SIZE (-4)          /* h <= 0 or not finite */
+#define HOLOSYM_INVALID_STEP_COUNT (-5)         /* steps < 0 */
+#define HOLOSYM_OFF_MANIFOLD (-6)               /* start state violates phi or Phi H_p */
+#define HOLOSYM_USER_ABORT (-7)                 /* the observer returned nonzero */
+#define HOLOSYM_NOT_INITIALIZED (-8)            /* NULL handle, failed create, no step yet */
+#define HOLOSYM_INVALID_ARGUMENT (-9)           /* NULL callback, NaN input, tau not in [0,1] */
+#define HOLOSYM_SINGULAR_MATRIX 1
+#define HOLOSYM_NEWTON_NOT_CONVERGED 2
+#define HOLOSYM_NEWTON_DIVERGED 3
+#define HOLOSYM_NONFINITE_VALUE 4               /* also: a callback returned nonzero */
+#define HOLOSYM_RANK_DEFICIENT_CONSTRAINTS 5
+
+/* Callbacks: return 0 on success; anything else fails the call that needed the value
+ * (HOLOSYM_NONFINITE_VALUE, the message names the callback and the value returned). */
+typedef int (*holosym_hamiltonian_fn)(int n, const holosym_real *q, const holosym_real *p,
+                                      holosym_real *energy, void *data);
+/* dH/dq or dH/dp into gradient[0..n-1]. */
+typedef int (*holosym_gradient_fn)(int n, const holosym_real *q, const holosym_real *p,
+                                   holosym_real *gradient, void *data);
+/* phi(q) into values[0..m-1]; or Phi(q) row-major: values[l*n + i] = d phi_l / d q_i. */
+typedef int (*holosym_constraint_fn)(int n, int m, const holosym_real *q, holosym_real *values,
+                                     void *data);
+
+/* The system: sizes, callbacks (none may be NULL) and the user data they receive. */
+typedef struct holosym_system {
+    int n; /* coordinates q and momenta p, n >= 1 */
+    int m; /* constraints, 0 <= m < n */
+    holosym_hamiltonian_fn hamiltonian;
+    holosym_gradient_fn dh_dq;
+    holosym_gradient_fn dh_dp;
+    holosym_constraint_fn constraint;
+    holosym_constraint_fn constraint_jacobian;
+    void *data;
+} holosym_system;
+
+/* An integrator: opaque. */
+typedef struct holosym_integrator holosym_integrator;
+
+/* Called after each step of holosym_integrate with the new state; return nonzero to stop.
+ * Inside it, holosym_dense_output(integrator, tau, ...) evaluates the step just taken. */
+typedef int (*holosym_observer_fn)(holosym_integrator *integrator, int step, holosym_real t,
+                                   const holosym_real *q, const holosym_real *p, void *data);
+
+/* A handle for the system and the scheme (M, N, G) (e.g. 2, 1, 3: order 4). NULL only for
+ * a NULL system; otherwise check holosym_status (the handle of a failed create answers
+ * every call with HOLOSYM_NOT_INITIALIZED). The callbacks are kept, the struct is not. */
+holosym_integrator *holosym_create(const holosym_system *system, int M, int N, int G);
+
+/* Free the handle (NULL is ignored). */
+void holosym_destroy(holosym_integrator *integrator);
+
+/* The status code of the last call on the handle. */
+int holosym_status(const holosym_integrator *integrator);
+
+/* Copy the last call's message into buffer (NUL-terminated, at most size - 1 characters);
+ * returns its full length. */
+int holosym_message(const holosym_integrator *integrator, char *buffer, int size);
+
+/* One step of size h, q[n] and p[n] in place. */
+int holosym_step(holosym_integrator *integrator, holosym_real *q, holosym_real *p,
+                 holosym_real h);
+
+/* steps steps of size h in place; observer and steps_done may be NULL. */
+int holosym_integrate(holosym_integrator *integrator, holosym_real *q, holosym_real *p,
+                      holosym_real h, int steps, holosym_observer_fn observer,
+                      void *observer_data, int *steps_done);
+
+/* q~(tau), p~(tau), lambda~(tau) of the last step, tau in [0, 1] (lambda: m values, may be
+ * NULL when m = 0). */
+int holosym_dense_output(const holosym_integrator *integrator, holosym_real tau,
+                         holosym_real *q, holosym_real *p, holosym_real *lambda);
+
+/* Project (q, p) onto the constraint manifold {phi = 0, Phi dH/dp = 0} in place. */
+int holosym_project(holosym_integrator *integrator, holosym_real *q, holosym_real *p);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* HOLOSYM_H */

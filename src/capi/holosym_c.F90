@@ -1,0 +1,556 @@
+!> category: C interface (include/holosym.h)
+!! The C interface of holosym (declared in include/holosym.h): an integrator for a system
+!! given by C callbacks, with step, integrate (with an optional C observer), dense output,
+!! projection onto the manifold, status code and message.
+!!
+!! Reals are `holosym_real`: `__float128` in the default (real128) build, through
+!! gfortran's `c_float128` (a GNU extension of ISO_C_BINDING; the C side needs a compiler
+!! with `__float128`, e.g. GCC or Clang on x86-64), and `double` in the real64 build
+!! (-DHOLOSYM_REAL64), where any C compiler works.
+!!
+!! A handle owns the integrator, a copy of the callbacks and the status of its last call.
+!! Every function returns that status code (0 success, < 0 invalid input, > 0 numerical
+!! failure: the HOLOSYM_* codes) and keeps the caller's arrays unchanged on failure. A
+!! callback returns 0 on success; any other value makes the library see NaN, fail the
+!! step with HOLOSYM_NONFINITE_VALUE and name the callback and its value in the message.
+!!
+!! A real128 build with a compiler other than gfortran has no C kind for the library's
+!! reals: the module then holds only `c_interface_available = .false.`.
+module holosym_c
+#if defined(HOLOSYM_REAL64) || defined(__GFORTRAN__)
+    use, intrinsic :: iso_c_binding, only: c_int, c_char, c_ptr, c_funptr, c_null_ptr, &
+        c_null_char, c_associated, c_f_pointer, c_f_procpointer, c_loc, c_double
+#ifndef HOLOSYM_REAL64
+    use, intrinsic :: iso_c_binding, only: c_float128
+#endif
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    use holosym_kinds, only: wp
+    use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, &
+        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION
+    use holosym_problem, only: constrained_hamiltonian
+    use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
+    use holosym_projection, only: project_to_manifold
+    implicit none
+    private
+
+    public :: holosym_system_c, c_real
+    !> True: this build has the C interface.
+    logical, parameter, public :: c_interface_available = .true.
+    public :: holosym_create, holosym_destroy, holosym_status, holosym_message, holosym_step, &
+        holosym_integrate, holosym_dense_output, holosym_project
+
+#ifdef HOLOSYM_REAL64
+    !> The C type of reals: double.
+    integer, parameter :: c_real = c_double
+#else
+    !> The C type of reals: __float128.
+    integer, parameter :: c_real = c_float128
+#endif
+    ! The C real must be the library's real (fails to compile otherwise).
+    integer, parameter :: kinds_agree(1) = [1]
+    integer, parameter :: kinds_check = kinds_agree(merge(1, 2, c_real == wp))
+
+    !> The system as C gives it (struct holosym_system).
+    type, bind(C) :: holosym_system_c
+        integer(c_int) :: n = 0                  !! coordinates
+        integer(c_int) :: m = 0                  !! constraints
+        type(c_funptr) :: hamiltonian            !! int (*)(int n, q, p, *energy, data)
+        type(c_funptr) :: dh_dq                  !! int (*)(int n, q, p, grad, data)
+        type(c_funptr) :: dh_dp                  !! int (*)(int n, q, p, grad, data)
+        type(c_funptr) :: constraint             !! int (*)(int n, int m, q, phi, data)
+        type(c_funptr) :: constraint_jacobian    !! int (*)(int n, int m, q, jac, data)
+        type(c_ptr) :: data                      !! passed to every callback
+    end type holosym_system_c
+
+    abstract interface
+        integer(c_int) function c_hamiltonian(n, q, p, energy, data) bind(C)
+            import :: c_int, c_real, c_ptr
+            integer(c_int), value :: n
+            real(c_real), intent(in) :: q(*), p(*)
+            real(c_real), intent(out) :: energy
+            type(c_ptr), value :: data
+        end function c_hamiltonian
+        integer(c_int) function c_gradient(n, q, p, gradient, data) bind(C)
+            import :: c_int, c_real, c_ptr
+            integer(c_int), value :: n
+            real(c_real), intent(in) :: q(*), p(*)
+            real(c_real), intent(out) :: gradient(*)
+            type(c_ptr), value :: data
+        end function c_gradient
+        integer(c_int) function c_constraint(n, m, q, values, data) bind(C)
+            import :: c_int, c_real, c_ptr
+            integer(c_int), value :: n, m
+            real(c_real), intent(in) :: q(*)
+            real(c_real), intent(out) :: values(*)
+            type(c_ptr), value :: data
+        end function c_constraint
+        integer(c_int) function c_observer(handle, step, t, q, p, data) bind(C)
+            import :: c_int, c_real, c_ptr
+            type(c_ptr), value :: handle
+            integer(c_int), value :: step
+            real(c_real), value :: t
+            real(c_real), intent(in) :: q(*), p(*)
+            type(c_ptr), value :: data
+        end function c_observer
+    end interface
+
+    !> The first callback failure of a call (kept through a pointer: the system's bindings
+    !! see the system as intent(in)).
+    type :: callback_record
+        integer :: code = 0
+        character(len=:), allocatable :: name
+    end type callback_record
+
+    !> A constrained Hamiltonian system whose procedures are C callbacks.
+    type, extends(constrained_hamiltonian) :: c_callback_system
+        procedure(c_hamiltonian), pointer, nopass :: h_fn => null()
+        procedure(c_gradient), pointer, nopass :: hq_fn => null()
+        procedure(c_gradient), pointer, nopass :: hp_fn => null()
+        procedure(c_constraint), pointer, nopass :: phi_fn => null()
+        procedure(c_constraint), pointer, nopass :: jac_fn => null()
+        type(c_ptr) :: data = c_null_ptr
+        type(callback_record), pointer :: record => null()
+    contains
+        procedure :: hamiltonian => c_system_hamiltonian
+        procedure :: dh_dq => c_system_dh_dq
+        procedure :: dh_dp => c_system_dh_dp
+        procedure :: constraint => c_system_constraint
+        procedure :: constraint_jacobian => c_system_constraint_jacobian
+    end type c_callback_system
+
+    !> Calls a C observer after every step of `holosym_integrate`.
+    type, extends(step_observer) :: c_step_observer
+        procedure(c_observer), pointer, nopass :: fn => null()
+        type(c_ptr) :: handle = c_null_ptr
+        type(c_ptr) :: data = c_null_ptr
+    contains
+        procedure :: observe => c_observe
+    end type c_step_observer
+
+    !> What a C handle points to.
+    type :: c_handle
+        type(constrained_integrator) :: integrator
+        type(c_callback_system) :: system
+        type(callback_record), pointer :: record => null()
+        logical :: ready = .false.
+        integer :: code = HOLOSYM_SUCCESS
+        character(len=:), allocatable :: message
+    end type c_handle
+
+contains
+
+    ! ---------------------------------------------------------------- the callbacks
+
+    !> NaN, what a failed callback returns to the library.
+    real(wp) function not_a_number()
+        not_a_number = ieee_value(1.0_wp, ieee_quiet_nan)
+    end function not_a_number
+
+    !> Remember the first failing callback of the current call.
+    subroutine note_failure(self, name, code)
+        class(c_callback_system), intent(in) :: self
+        character(len=*), intent(in) :: name
+        integer(c_int), intent(in) :: code
+        if (.not. associated(self%record)) return
+        if (self%record%code /= 0) return
+        self%record%code = code
+        self%record%name = name
+    end subroutine note_failure
+
+    function c_system_hamiltonian(self, q, p) result(energy)
+        class(c_callback_system), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp) :: energy
+        real(c_real) :: q_c(self%n), p_c(self%n), value
+        integer(c_int) :: rc
+        q_c = q
+        p_c = p
+        rc = self%h_fn(int(self%n, c_int), q_c, p_c, value, self%data)
+        energy = value
+        if (rc /= 0) then
+            call note_failure(self, "hamiltonian", rc)
+            energy = not_a_number()
+        end if
+    end function c_system_hamiltonian
+
+    subroutine c_system_dh_dq(self, q, p, gradient)
+        class(c_callback_system), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: gradient(:)
+        real(c_real) :: q_c(self%n), p_c(self%n), g_c(self%n)
+        integer(c_int) :: rc
+        q_c = q
+        p_c = p
+        rc = self%hq_fn(int(self%n, c_int), q_c, p_c, g_c, self%data)
+        gradient = g_c
+        if (rc /= 0) then
+            call note_failure(self, "dh_dq", rc)
+            gradient = not_a_number()
+        end if
+    end subroutine c_system_dh_dq
+
+    subroutine c_system_dh_dp(self, q, p, gradient)
+        class(c_callback_system), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: gradient(:)
+        real(c_real) :: q_c(self%n), p_c(self%n), g_c(self%n)
+        integer(c_int) :: rc
+        q_c = q
+        p_c = p
+        rc = self%hp_fn(int(self%n, c_int), q_c, p_c, g_c, self%data)
+        gradient = g_c
+        if (rc /= 0) then
+            call note_failure(self, "dh_dp", rc)
+            gradient = not_a_number()
+        end if
+    end subroutine c_system_dh_dp
+
+    subroutine c_system_constraint(self, q, phi)
+        class(c_callback_system), intent(in) :: self
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: phi(:)
+        real(c_real) :: q_c(self%n), phi_c(max(1, self%m))
+        integer(c_int) :: rc
+        q_c = q
+        rc = self%phi_fn(int(self%n, c_int), int(self%m, c_int), q_c, phi_c, self%data)
+        phi = phi_c(1:self%m)
+        if (rc /= 0) then
+            call note_failure(self, "constraint", rc)
+            phi = not_a_number()
+        end if
+    end subroutine c_system_constraint
+
+    !> Phi from the row-major m x n array of C: jac[l n + i] = d phi_l / d q_i.
+    subroutine c_system_constraint_jacobian(self, q, jacobian)
+        class(c_callback_system), intent(in) :: self
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: jacobian(:, :)
+        real(c_real) :: q_c(self%n), jac_c(max(1, self%m * self%n))
+        integer(c_int) :: rc
+        integer :: l
+        q_c = q
+        rc = self%jac_fn(int(self%n, c_int), int(self%m, c_int), q_c, jac_c, self%data)
+        do l = 1, self%m
+            jacobian(l, :) = jac_c((l - 1) * self%n + 1:l * self%n)
+        end do
+        if (rc /= 0) then
+            call note_failure(self, "constraint_jacobian", rc)
+            jacobian = not_a_number()
+        end if
+    end subroutine c_system_constraint_jacobian
+
+    subroutine c_observe(self, step, t, q, p, info, halt)
+        class(c_step_observer), intent(inout) :: self
+        integer, intent(in) :: step
+        real(wp), intent(in) :: t, q(:), p(:)
+        type(step_info_t), intent(in) :: info
+        logical, intent(inout) :: halt
+        real(c_real) :: q_c(size(q)), p_c(size(p))
+        q_c = q
+        p_c = p
+        if (self%fn(self%handle, int(step, c_int), real(t, c_real), q_c, p_c, self%data) /= 0) &
+            halt = .true.
+    end subroutine c_observe
+
+    ! ---------------------------------------------------------------- helpers
+
+    !> The handle behind a C pointer (null when there is none).
+    function handle_of(ptr) result(handle)
+        type(c_ptr), intent(in) :: ptr
+        type(c_handle), pointer :: handle
+        handle => null()
+        if (c_associated(ptr)) call c_f_pointer(ptr, handle)
+    end function handle_of
+
+    !> Record a call's outcome in the handle, adding the failing callback if any.
+    integer(c_int) function finish(handle, status) result(code)
+        type(c_handle), intent(inout) :: handle
+        type(holosym_status_t), intent(in) :: status
+        handle%code = status%code
+        handle%message = ""
+        if (allocated(status%message)) handle%message = status%message
+        if (handle%record%code /= 0) handle%message = handle%message // " (callback " // &
+            handle%record%name // " returned " // decimal(handle%record%code) // ")"
+        code = int(handle%code, c_int)
+    end function finish
+
+    !> Fail a call on the handle before the library is reached.
+    integer(c_int) function refuse(handle, code, message) result(result_code)
+        type(c_handle), intent(inout) :: handle
+        integer, intent(in) :: code
+        character(len=*), intent(in) :: message
+        handle%code = code
+        handle%message = message
+        result_code = int(code, c_int)
+    end function refuse
+
+    !> Decimal text of an integer.
+    function decimal(value) result(text)
+        integer, intent(in) :: value
+        character(len=:), allocatable :: text
+        character(len=16) :: buffer
+        write (buffer, '(i0)') value
+        text = trim(buffer)
+    end function decimal
+
+    !> The message of bad sizes.
+    function dimension_message(n, m) result(text)
+        integer, intent(in) :: n, m
+        character(len=:), allocatable :: text
+        character(len=32) :: numbers
+        write (numbers, '(i0, ", m = ", i0)') n, m
+        text = "holosym_create: need n >= 1 and 0 <= m < n; got n = " // trim(numbers)
+    end function dimension_message
+
+    ! ---------------------------------------------------------------- the C functions
+
+    !> holosym_integrator *holosym_create(const holosym_system *system, int M, int N, int G):
+    !! a handle for `system` and the scheme (M, N, G). Returns NULL only when `system` is
+    !! NULL; otherwise check `holosym_status` (HOLOSYM_INVALID_ARGUMENT for a NULL callback,
+    !! HOLOSYM_INVALID_DIMENSION, HOLOSYM_INVALID_ORDER). A handle whose creation failed
+    !! answers every call with HOLOSYM_NOT_INITIALIZED until destroyed.
+    function holosym_create(system_ptr, order_m, order_n, gauss_points) result(ptr) &
+        bind(C, name="holosym_create")
+        type(c_ptr), value :: system_ptr       !! const holosym_system *: the callbacks
+        integer(c_int), value :: order_m       !! M >= 1
+        integer(c_int), value :: order_n       !! N >= 0
+        integer(c_int), value :: gauss_points  !! G >= N + 1
+        type(c_ptr) :: ptr
+        type(holosym_system_c), pointer :: system
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        integer(c_int) :: ignored
+        integer :: n, m
+        ptr = c_null_ptr
+        if (.not. c_associated(system_ptr)) return
+        call c_f_pointer(system_ptr, system)
+        allocate (handle)
+        allocate (handle%record)
+        handle%message = ""
+        ptr = c_loc(handle)
+        if (.not. (c_associated(system%hamiltonian) .and. c_associated(system%dh_dq) .and. &
+                   c_associated(system%dh_dp) .and. c_associated(system%constraint) .and. &
+                   c_associated(system%constraint_jacobian))) then
+            ignored = refuse(handle, HOLOSYM_INVALID_ARGUMENT, "holosym_create: every " // &
+                "callback (hamiltonian, dh_dq, dh_dp, constraint, constraint_jacobian) must " &
+                // "be given")
+            return
+        end if
+        n = system%n
+        m = system%m
+        if (n < 1 .or. m < 0 .or. m >= n) then
+            ignored = refuse(handle, HOLOSYM_INVALID_DIMENSION, dimension_message(n, m))
+            return
+        end if
+        handle%system%n = system%n
+        handle%system%m = system%m
+        call c_f_procpointer(system%hamiltonian, handle%system%h_fn)
+        call c_f_procpointer(system%dh_dq, handle%system%hq_fn)
+        call c_f_procpointer(system%dh_dp, handle%system%hp_fn)
+        call c_f_procpointer(system%constraint, handle%system%phi_fn)
+        call c_f_procpointer(system%constraint_jacobian, handle%system%jac_fn)
+        handle%system%data = system%data
+        handle%system%record => handle%record
+        call handle%integrator%init(handle%system, int(order_m), int(order_n), &
+                                    int(gauss_points), status)
+        handle%ready = status%code == HOLOSYM_SUCCESS
+        ignored = finish(handle, status)
+    end function holosym_create
+
+    !> void holosym_destroy(holosym_integrator *integrator): free the handle (NULL is
+    !! ignored).
+    subroutine holosym_destroy(ptr) bind(C, name="holosym_destroy")
+        type(c_ptr), value :: ptr !! the handle
+        type(c_handle), pointer :: handle
+        handle => handle_of(ptr)
+        if (.not. associated(handle)) return
+        if (associated(handle%record)) deallocate (handle%record)
+        deallocate (handle)
+    end subroutine holosym_destroy
+
+    !> int holosym_status(const holosym_integrator *integrator): the code of the last call
+    !! (HOLOSYM_NOT_INITIALIZED for NULL).
+    integer(c_int) function holosym_status(ptr) bind(C, name="holosym_status")
+        type(c_ptr), value :: ptr !! the handle
+        type(c_handle), pointer :: handle
+        handle => handle_of(ptr)
+        holosym_status = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        if (associated(handle)) holosym_status = int(handle%code, c_int)
+    end function holosym_status
+
+    !> int holosym_message(const holosym_integrator *integrator, char *buffer, int size):
+    !! copy the message of the last call into buffer (NUL-terminated, truncated to size - 1
+    !! characters); returns the message's full length.
+    integer(c_int) function holosym_message(ptr, buffer, size) bind(C, name="holosym_message")
+        type(c_ptr), value :: ptr                     !! the handle
+        character(kind=c_char), intent(out) :: buffer(*) !! the message
+        integer(c_int), value :: size                 !! room in buffer, including the NUL
+        type(c_handle), pointer :: handle
+        character(len=:), allocatable :: text
+        integer :: i, count
+        handle => handle_of(ptr)
+        text = "NULL integrator"
+        if (associated(handle)) text = handle%message
+        holosym_message = int(len(text), c_int)
+        if (size < 1) return
+        count = min(len(text), int(size) - 1)
+        do i = 1, count
+            buffer(i) = text(i:i)
+        end do
+        buffer(count + 1) = c_null_char
+    end function holosym_message
+
+    !> int holosym_step(holosym_integrator *integrator, holosym_real *q, holosym_real *p,
+    !! holosym_real h): one step in place; q and p unchanged on failure. Codes: those of
+    !! the Fortran `step`.
+    integer(c_int) function holosym_step(ptr, q, p, h) bind(C, name="holosym_step")
+        type(c_ptr), value :: ptr            !! the handle
+        real(c_real), intent(inout) :: q(*)  !! coordinates (n)
+        real(c_real), intent(inout) :: p(*)  !! momenta (n)
+        real(c_real), value :: h             !! step size
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        real(wp), allocatable :: qw(:), pw(:)
+        handle => handle_of(ptr)
+        holosym_step = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        if (.not. associated(handle)) return
+        if (.not. handle%ready) then
+            holosym_step = refuse(handle, HOLOSYM_NOT_INITIALIZED, "holosym_step: the " // &
+                "integrator was not created successfully")
+            return
+        end if
+        handle%record%code = 0
+        qw = q(1:handle%system%n)
+        pw = p(1:handle%system%n)
+        call handle%integrator%step(handle%system, qw, pw, real(h, wp), status=status)
+        if (status%code == HOLOSYM_SUCCESS) then
+            q(1:handle%system%n) = qw
+            p(1:handle%system%n) = pw
+        end if
+        holosym_step = finish(handle, status)
+    end function holosym_step
+
+    !> int holosym_integrate(holosym_integrator *integrator, holosym_real *q,
+    !! holosym_real *p, holosym_real h, int steps, holosym_observer observer,
+    !! void *observer_data, int *steps_done): `steps` steps in place, calling `observer`
+    !! (may be NULL) after each; a nonzero return of the observer stops the run
+    !! (HOLOSYM_USER_ABORT). Inside the observer `holosym_dense_output` evaluates the step
+    !! just taken. On failure q, p hold the last good step; steps_done (may be NULL) says
+    !! how many steps completed.
+    integer(c_int) function holosym_integrate(ptr, q, p, h, steps, observer, observer_data, &
+                                              steps_done) bind(C, name="holosym_integrate")
+        type(c_ptr), value :: ptr             !! the handle
+        real(c_real), intent(inout) :: q(*)   !! coordinates (n)
+        real(c_real), intent(inout) :: p(*)   !! momenta (n)
+        real(c_real), value :: h              !! step size
+        integer(c_int), value :: steps        !! number of steps
+        type(c_funptr), value :: observer     !! observer or NULL
+        type(c_ptr), value :: observer_data   !! passed to the observer
+        type(c_ptr), value :: steps_done      !! int *, or NULL
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        type(c_step_observer) :: bridge
+        integer(c_int), pointer :: done
+        real(wp), allocatable :: qw(:), pw(:)
+        integer :: count
+        handle => handle_of(ptr)
+        holosym_integrate = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        if (.not. associated(handle)) return
+        if (.not. handle%ready) then
+            holosym_integrate = refuse(handle, HOLOSYM_NOT_INITIALIZED, "holosym_integrate: " &
+                // "the integrator was not created successfully")
+            return
+        end if
+        handle%record%code = 0
+        qw = q(1:handle%system%n)
+        pw = p(1:handle%system%n)
+        count = 0
+        if (c_associated(observer)) then
+            call c_f_procpointer(observer, bridge%fn)
+            bridge%handle = ptr
+            bridge%data = observer_data
+            call handle%integrator%integrate(handle%system, qw, pw, real(h, wp), int(steps), &
+                                             bridge, count, status)
+        else
+            call handle%integrator%integrate(handle%system, qw, pw, real(h, wp), int(steps), &
+                                             steps_done=count, status=status)
+        end if
+        if (count > 0) then
+            q(1:handle%system%n) = qw
+            p(1:handle%system%n) = pw
+        end if
+        if (c_associated(steps_done)) then
+            call c_f_pointer(steps_done, done)
+            done = int(count, c_int)
+        end if
+        holosym_integrate = finish(handle, status)
+    end function holosym_integrate
+
+    !> int holosym_dense_output(const holosym_integrator *integrator, holosym_real tau,
+    !! holosym_real *q, holosym_real *p, holosym_real *lambda): the last step's q~, p~ and
+    !! lambda~ at tau in [0, 1]; lambda may be NULL when m = 0. Codes: those of the Fortran
+    !! `dense_output`; outputs unchanged on failure.
+    integer(c_int) function holosym_dense_output(ptr, tau, q, p, lambda) &
+        bind(C, name="holosym_dense_output")
+        type(c_ptr), value :: ptr             !! the handle
+        real(c_real), value :: tau            !! normalised time in the last step
+        real(c_real), intent(inout) :: q(*)   !! q~(tau) (n)
+        real(c_real), intent(inout) :: p(*)   !! p~(tau) (n)
+        real(c_real), intent(inout) :: lambda(*) !! lambda~(tau) (m)
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        real(wp), allocatable :: qw(:), pw(:), lw(:)
+        handle => handle_of(ptr)
+        holosym_dense_output = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        if (.not. associated(handle)) return
+        if (.not. handle%ready) then
+            holosym_dense_output = refuse(handle, HOLOSYM_NOT_INITIALIZED, &
+                "holosym_dense_output: the integrator was not created successfully")
+            return
+        end if
+        allocate (qw(handle%system%n), pw(handle%system%n), lw(handle%system%m))
+        call handle%integrator%dense_output(real(tau, wp), qw, pw, lw, status)
+        if (status%code == HOLOSYM_SUCCESS) then
+            q(1:handle%system%n) = qw
+            p(1:handle%system%n) = pw
+            if (handle%system%m > 0) lambda(1:handle%system%m) = lw
+        end if
+        holosym_dense_output = finish(handle, status)
+    end function holosym_dense_output
+
+    !> int holosym_project(holosym_integrator *integrator, holosym_real *q,
+    !! holosym_real *p): project (q, p) onto the constraint manifold in place (the Fortran
+    !! `project_to_manifold` with its defaults); unchanged on failure.
+    integer(c_int) function holosym_project(ptr, q, p) bind(C, name="holosym_project")
+        type(c_ptr), value :: ptr            !! the handle
+        real(c_real), intent(inout) :: q(*)  !! coordinates (n)
+        real(c_real), intent(inout) :: p(*)  !! momenta (n)
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        real(wp), allocatable :: qw(:), pw(:)
+        handle => handle_of(ptr)
+        holosym_project = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        if (.not. associated(handle)) return
+        if (.not. handle%ready) then
+            holosym_project = refuse(handle, HOLOSYM_NOT_INITIALIZED, "holosym_project: " // &
+                "the integrator was not created successfully")
+            return
+        end if
+        handle%record%code = 0
+        qw = q(1:handle%system%n)
+        pw = p(1:handle%system%n)
+        call project_to_manifold(handle%system, qw, pw, status)
+        if (status%code == HOLOSYM_SUCCESS) then
+            q(1:handle%system%n) = qw
+            p(1:handle%system%n) = pw
+        end if
+        holosym_project = finish(handle, status)
+    end function holosym_project
+
+#else
+    implicit none
+    private
+    !> False: a real128 build needs gfortran's c_float128 for the C interface.
+    logical, parameter, public :: c_interface_available = .false.
+#endif
+end module holosym_c

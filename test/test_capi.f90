@@ -1,0 +1,280 @@
+!> Tests of the C interface (holosym_c, include/holosym.h), called from Fortran through its
+!! bind(C) procedures with bind(C) callbacks, as a C program calls it: the planar pendulum
+!! integrated through the handle agrees with the Fortran integrator; dense output inside a
+!! C-style observer; every kind of bad input gives its code and message and leaves the
+!! arrays unchanged. (`make c-example` builds and runs the C program itself with gcc.)
+module test_capi
+    use, intrinsic :: iso_c_binding, only: c_int, c_ptr, c_funptr, c_funloc, c_null_ptr, &
+        c_null_funptr, c_associated, c_loc, c_char, c_f_pointer
+    use holosym_kinds, only: wp
+    use holosym_status, only: HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
+        HOLOSYM_INVALID_DIMENSION, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_STEP_SIZE, &
+        HOLOSYM_NOT_INITIALIZED, HOLOSYM_NONFINITE_VALUE, HOLOSYM_USER_ABORT
+    use holosym_integrator, only: constrained_integrator
+    use holosym_models, only: planar_pendulum
+    use holosym_c, only: holosym_system_c, c_real, holosym_create, holosym_destroy, &
+        holosym_status, holosym_message, holosym_step, holosym_integrate, &
+        holosym_dense_output, holosym_project
+    use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
+    implicit none
+    private
+    public :: capi_tests
+
+    real(wp), parameter :: eps = epsilon(1.0_wp)
+
+contains
+
+    !> The tests of this suite.
+    function capi_tests() result(tests)
+        type(test_case_t), allocatable :: tests(:)
+        tests = [ &
+            new_test("pendulum_through_the_c_interface", pendulum_through_c), &
+            new_test("observer_and_dense_output", observer_and_dense), &
+            new_test("rejects_bad_input", bad_input)]
+    end function capi_tests
+
+    ! ---------------------------------------------------------------- C callbacks
+
+    integer(c_int) function c_h(n, q, p, energy, data) bind(C)
+        integer(c_int), value :: n
+        real(c_real), intent(in) :: q(*), p(*)
+        real(c_real), intent(out) :: energy
+        type(c_ptr), value :: data
+        energy = (p(1)**2 + p(2)**2) / 2 + q(2)
+        c_h = 0
+    end function c_h
+
+    integer(c_int) function c_hq(n, q, p, gradient, data) bind(C)
+        integer(c_int), value :: n
+        real(c_real), intent(in) :: q(*), p(*)
+        real(c_real), intent(out) :: gradient(*)
+        type(c_ptr), value :: data
+        gradient(1:2) = [0.0_c_real, 1.0_c_real]
+        c_hq = 0
+    end function c_hq
+
+    !> dH/dq that fails (returns 7) whenever data is not NULL.
+    integer(c_int) function c_hq_failing(n, q, p, gradient, data) bind(C)
+        integer(c_int), value :: n
+        real(c_real), intent(in) :: q(*), p(*)
+        real(c_real), intent(out) :: gradient(*)
+        type(c_ptr), value :: data
+        gradient(1:2) = [0.0_c_real, 1.0_c_real]
+        c_hq_failing = 0
+        if (c_associated(data)) c_hq_failing = 7
+    end function c_hq_failing
+
+    integer(c_int) function c_hp(n, q, p, gradient, data) bind(C)
+        integer(c_int), value :: n
+        real(c_real), intent(in) :: q(*), p(*)
+        real(c_real), intent(out) :: gradient(*)
+        type(c_ptr), value :: data
+        gradient(1:2) = p(1:2)
+        c_hp = 0
+    end function c_hp
+
+    integer(c_int) function c_phi(n, m, q, values, data) bind(C)
+        integer(c_int), value :: n, m
+        real(c_real), intent(in) :: q(*)
+        real(c_real), intent(out) :: values(*)
+        type(c_ptr), value :: data
+        values(1) = q(1)**2 + q(2)**2 - 1
+        c_phi = 0
+    end function c_phi
+
+    integer(c_int) function c_jac(n, m, q, values, data) bind(C)
+        integer(c_int), value :: n, m
+        real(c_real), intent(in) :: q(*)
+        real(c_real), intent(out) :: values(*)
+        type(c_ptr), value :: data
+        values(1:2) = 2 * q(1:2)
+        c_jac = 0
+    end function c_jac
+
+    !> Observer: x~ in the middle of step 3 into data (a real(c_real) array of 2), stop at
+    !! step 5.
+    integer(c_int) function c_watch(handle, step, t, q, p, data) bind(C)
+        type(c_ptr), value :: handle
+        integer(c_int), value :: step
+        real(c_real), value :: t
+        real(c_real), intent(in) :: q(*), p(*)
+        type(c_ptr), value :: data
+        real(c_real), pointer :: seen(:)
+        real(c_real) :: qd(2), pd(2), lambda(1)
+        integer(c_int) :: code
+        c_watch = 0
+        call c_f_pointer(data, seen, [2])
+        if (step == 3) then
+            code = holosym_dense_output(handle, 0.5_c_real, qd, pd, lambda)
+            seen(1) = qd(1)
+            seen(2) = real(code, c_real)
+        end if
+        if (step == 5) c_watch = 1
+    end function c_watch
+
+    !> The planar pendulum's system struct.
+    function pendulum_struct() result(system)
+        type(holosym_system_c) :: system
+        system%n = 2
+        system%m = 1
+        system%hamiltonian = c_funloc(c_h)
+        system%dh_dq = c_funloc(c_hq)
+        system%dh_dp = c_funloc(c_hp)
+        system%constraint = c_funloc(c_phi)
+        system%constraint_jacobian = c_funloc(c_jac)
+        system%data = c_null_ptr
+    end function pendulum_struct
+
+    !> The message of the handle's last call.
+    function message_of(handle) result(text)
+        type(c_ptr), intent(in) :: handle
+        character(len=:), allocatable :: text
+        character(kind=c_char) :: buffer(400)
+        integer :: length, i
+        length = holosym_message(handle, buffer, 400_c_int)
+        allocate (character(len=min(length, 399)) :: text)
+        do i = 1, len(text)
+            text(i:i) = buffer(i)
+        end do
+    end function message_of
+
+    ! ---------------------------------------------------------------- tests
+
+    !> 40 steps through the handle, and through the Fortran integrator (general scheme, as
+    !! for callbacks): the same states to round-off.
+    subroutine pendulum_through_c(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(holosym_system_c), target :: system
+        type(planar_pendulum) :: sys
+        type(constrained_integrator) :: integrator
+        type(c_ptr) :: handle
+        real(c_real) :: q(2), p(2)
+        real(wp) :: qf(2), pf(2)
+        integer(c_int), target :: done
+        system = pendulum_struct()
+        handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
+        call check(error, c_associated(handle), "a handle")
+        call check_status_code(error, int(holosym_status(handle)), HOLOSYM_SUCCESS, "create")
+        if (allocated(error)) return
+        sys = planar_pendulum()
+        call sys%initial_state(qf, pf)
+        q = qf
+        p = pf
+        call check_status_code(error, int(holosym_step(handle, q, p, 0.0625_c_real)), &
+            HOLOSYM_SUCCESS, "step")
+        call check_status_code(error, int(holosym_integrate(handle, q, p, 0.0625_c_real, &
+            39_c_int, c_null_funptr, c_null_ptr, c_loc(done))), HOLOSYM_SUCCESS, "integrate")
+        call check(error, done == 39, "steps_done is not 39")
+        integrator%structured = .false.
+        call integrator%init(sys, 3, 2, 4)
+        call integrator%integrate(sys, qf, pf, 0.0625_wp, 40)
+        call check(error, maxval(abs(q - qf)) <= 1.0e3_wp * eps .and. &
+            maxval(abs(p - pf)) <= 1.0e3_wp * eps, "C and Fortran states differ")
+        call holosym_destroy(handle)
+    end subroutine pendulum_through_c
+
+    !> A C observer sees the dense output of the step just taken and stops the run.
+    subroutine observer_and_dense(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(holosym_system_c), target :: system
+        type(planar_pendulum) :: sys
+        type(constrained_integrator) :: integrator
+        type(c_ptr) :: handle
+        real(c_real), target :: seen(2)
+        real(c_real) :: q(2), p(2)
+        real(wp) :: qf(2), pf(2), qd(2), pd(2), lambda(1)
+        integer(c_int), target :: done
+        integer(c_int) :: code
+        system = pendulum_struct()
+        handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
+        sys = planar_pendulum()
+        call sys%initial_state(qf, pf)
+        q = qf
+        p = pf
+        seen = -1
+        code = holosym_integrate(handle, q, p, 0.0625_c_real, 10_c_int, c_funloc(c_watch), &
+                                 c_loc(seen), c_loc(done))
+        call check_status_code(error, int(code), HOLOSYM_USER_ABORT, "observer stops at 5")
+        call check(error, done == 5 .and. nint(seen(2)) == HOLOSYM_SUCCESS, &
+            "dense output inside the observer")
+        integrator%structured = .false.
+        call integrator%init(sys, 3, 2, 4)
+        call integrator%integrate(sys, qf, pf, 0.0625_wp, 3)
+        call integrator%dense_output(0.5_wp, qd, pd, lambda)
+        call check(error, abs(seen(1) - qd(1)) <= 1.0e3_wp * eps, "x~ of step 3 differs " // &
+            "from the Fortran integrator's dense output")
+        call holosym_destroy(handle)
+    end subroutine observer_and_dense
+
+    !> Each bad input: its code, a message, the arrays unchanged.
+    subroutine bad_input(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(holosym_system_c), target :: system
+        type(c_ptr) :: handle
+        real(c_real) :: q(2), p(2), q0(2), p0(2), lambda(1)
+        real(c_real), target :: marker
+        character(len=:), allocatable :: message
+        character(kind=c_char) :: tiny_buffer(4)
+        integer(c_int) :: code
+        q0 = [sin(1.0_c_real), -cos(1.0_c_real)]
+        p0 = 0
+        q = q0
+        p = p0
+        call check(error, .not. c_associated(holosym_create(c_null_ptr, 3_c_int, 2_c_int, &
+            4_c_int)), "NULL system: NULL handle")
+        call check_status_code(error, int(holosym_status(c_null_ptr)), &
+            HOLOSYM_NOT_INITIALIZED, "status of NULL")
+        call check_status_code(error, int(holosym_step(c_null_ptr, q, p, 0.0625_c_real)), &
+            HOLOSYM_NOT_INITIALIZED, "step on NULL")
+        system = pendulum_struct()
+        system%dh_dp = c_null_funptr
+        handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
+        call check_status_code(error, int(holosym_status(handle)), HOLOSYM_INVALID_ARGUMENT, &
+            "NULL callback")
+        call check(error, index(message_of(handle), "callback") > 0, "message: " // &
+            message_of(handle))
+        call check_status_code(error, int(holosym_step(handle, q, p, 0.0625_c_real)), &
+            HOLOSYM_NOT_INITIALIZED, "step on a failed handle")
+        call holosym_destroy(handle)
+        system = pendulum_struct()
+        system%m = 2
+        handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
+        call check_status_code(error, int(holosym_status(handle)), HOLOSYM_INVALID_DIMENSION, &
+            "m = n")
+        call check(error, index(message_of(handle), "m = 2") > 0, "message names m")
+        call holosym_destroy(handle)
+        system = pendulum_struct()
+        handle = holosym_create(c_loc(system), 0_c_int, 2_c_int, 4_c_int)
+        call check_status_code(error, int(holosym_status(handle)), HOLOSYM_INVALID_ORDER, "M = 0")
+        call holosym_destroy(handle)
+        handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
+        code = holosym_dense_output(handle, 0.5_c_real, q, p, lambda)
+        call check_status_code(error, int(code), HOLOSYM_NOT_INITIALIZED, "dense before a step")
+        code = holosym_step(handle, q, p, -1.0_c_real)
+        call check_status_code(error, int(code), HOLOSYM_INVALID_STEP_SIZE, "h = -1")
+        call check(error, all(q == q0) .and. all(p == p0), "state unchanged")
+        code = holosym_message(handle, tiny_buffer, 4_c_int)
+        call check(error, code == len(message_of(handle)) .and. code > 3 .and. &
+            tiny_buffer(4) == char(0), "truncated message NUL-terminated, full length returned")
+        q = [0.6_c_real, 0.8_c_real]
+        code = holosym_project(handle, q, p)
+        call check(error, code == HOLOSYM_SUCCESS .and. abs(q(1)**2 + q(2)**2 - 1) <= 8 * eps, &
+            "project")
+        call holosym_destroy(handle)
+        ! A callback that fails: named in the message, the state kept.
+        system = pendulum_struct()
+        system%dh_dq = c_funloc(c_hq_failing)
+        system%data = c_loc(marker)
+        handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
+        q = q0
+        p = p0
+        code = holosym_step(handle, q, p, 0.0625_c_real)
+        message = message_of(handle)
+        call check_status_code(error, int(code), HOLOSYM_NONFINITE_VALUE, "failing callback")
+        call check(error, index(message, "dh_dq returned 7") > 0, "message: " // message)
+        call check(error, all(q == q0) .and. all(p == p0), "state unchanged")
+        call holosym_destroy(handle)
+        call holosym_destroy(c_null_ptr)
+    end subroutine bad_input
+
+end module test_capi
