@@ -14,8 +14,8 @@
 !!     |q|^2 - 1 at t = 200:                           1.926E-34
 !!     max |(H - H0)/H0| over 200 s (H0 = -0.4696):    5.365E-08
 !!     max |phi| at the displacement nodes:            3.852E-34
-!!     max |Phi H_p| at the step ends:                 2.483E-34
-!!     Newton iterations per step:                          6.01
+!!     max |Phi H_p| at the step ends:                 5.537E-34
+!!     Newton iterations per step:                          5.70
 program example_spherical_pendulum
     use holosym, only: wp, spherical_pendulum, constrained_integrator, step_info_t, &
         holosym_status_t
