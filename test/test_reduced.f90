@@ -67,6 +67,7 @@ contains
             new_test("agrees_with_general_scheme", agrees_with_general), &
             new_test("no_constraints", no_constraints), &
             new_test("loose_tolerance_real64_iterations_only", loose_tolerance), &
+            new_test("unreachable_tolerance_stops_at_round_off", unreachable_tolerance), &
             new_test("dense_output_and_multipliers_agree", dense_output_agrees), &
             new_test("sparse_and_dense_derivatives_agree", sparse_equals_dense), &
             new_test("band_independent_of_chain_length", band_independent), &
@@ -180,6 +181,32 @@ contains
                 "working-precision residuals")
         end if
     end subroutine loose_tolerance
+
+    !> A Newton tolerance below round-off (epsilon / 1000) cannot be met: the iterations
+    !! stop when the corrections stagnate at round-off (the default stagnation level), on
+    !! both paths, well before the iteration limit.
+    subroutine unreachable_tolerance(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(pendulum_chain) :: sys
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        real(wp) :: q(16), p(16), theta(8)
+        integer :: path
+        sys = pendulum_chain(8)
+        theta = 0.5_wp
+        do path = 1, 2
+            call sys%state_from_angles(theta, 0 * theta, q, p)
+            integ%structured = path == 1
+            integ%newton%tolerance = epsilon(1.0_wp) / 1000
+            call integ%init(sys, 2, 1, 3, status)
+            call integ%integrate(sys, q, p, 0.01_wp, 8, status=status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "path " // &
+                int_str(path))
+            call check(error, integ%stats%newton_iterations < 8 * 20, "path " // &
+                int_str(path) // ": " // int_str(int(integ%stats%newton_iterations)) // &
+                " Newton iterations for 8 steps")
+        end do
+    end subroutine unreachable_tolerance
 
     !> Dense output (q~, p~, lambda~ inside the last step) and the multipliers at the nodes
     !! are the same polynomials on both paths.

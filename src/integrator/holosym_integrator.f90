@@ -39,7 +39,8 @@ module holosym_integrator
         HOLOSYM_NEWTON_NOT_CONVERGED
     use holosym_problem, only: constrained_hamiltonian
     use holosym_newton, only: newton_settings_t, newton_report_t, newton_solve, &
-        newton_workspace_t, all_finite, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
+        newton_workspace_t, all_finite, stagnation_floor, LINEAR_SOLVER_NATIVE, &
+        LINEAR_SOLVER_MIXED
     use holosym_scheme, only: discrete_scheme, JACOBIAN_ASSEMBLED, &
         JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, &
@@ -726,7 +727,7 @@ contains
 
         gradients0 = self%reduced%scheme%gradients
         call self%reduced%solve(sys, q, p, h, self%newton%tolerance, &
-            self%newton%stagnation_level, self%newton%max_iterations, &
+            stagnation_floor(self%newton), self%newton%max_iterations, &
             self%extrapolate .and. continues_last_step(self, q, p), self%dq_work, &
             self%dp_work, report, status)
         self%stats%newton_iterations = self%stats%newton_iterations + report%iterations

@@ -33,7 +33,7 @@ module holosym_newton
     private
 
     public :: nonlinear_system, newton_settings_t, newton_report_t, newton_solve
-    public :: newton_workspace_t, all_finite, all_finite_matrix
+    public :: newton_workspace_t, all_finite, all_finite_matrix, stagnation_floor
 
     !> Factor the Newton Jacobian in working precision with `lu_factor` (default).
     integer, parameter, public :: LINEAR_SOLVER_NATIVE = 1
@@ -270,8 +270,7 @@ contains
         report%pivot_ratio = huge(1.0_wp)
         tolerance = settings%pivot_tolerance
         if (tolerance <= 0) tolerance = default_pivot_tolerance(nx)
-        stagnation = settings%stagnation_level
-        if (stagnation <= 0) stagnation = eps**(2.0_wp / 3)
+        stagnation = stagnation_floor(settings)
         ! The original full Newton in working precision keeps its exact behaviour.
         plain = .not. settings%simplified .and. ws%linear_solver == LINEAR_SOLVER_NATIVE
         native_only = ws%linear_solver == LINEAR_SOLVER_NATIVE
@@ -502,6 +501,14 @@ contains
         end subroutine fail
 
     end subroutine solve_core
+
+    !> The stagnation level a solve uses: `settings%stagnation_level`, or epsilon**(2/3)
+    !! when that is <= 0 (the default).
+    pure real(wp) function stagnation_floor(settings)
+        type(newton_settings_t), intent(in) :: settings !! Newton's settings
+        stagnation_floor = settings%stagnation_level
+        if (stagnation_floor <= 0) stagnation_floor = eps**(2.0_wp / 3)
+    end function stagnation_floor
 
     !> Default `residual_lowered`: the working-precision residual.
     subroutine default_residual_lowered(self, x, f, status)
