@@ -19,7 +19,7 @@ module test_hardening
         HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
     use holosym_status, only: int_str, real_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
-        skip
+        skip, overflow_traps
     implicit none
     private
     public :: hardening_tests
@@ -362,13 +362,6 @@ contains
             index(status%message, absent) == 0, full // ": message '" // status%message // &
             "' mentions '" // absent // "'")
     end subroutine check_step_fails
-
-    !> True when the build traps floating-point overflow (-ffpe-trap=overflow): a test that
-    !! computes an overflow on purpose cannot run there.
-    logical function overflow_traps()
-        use, intrinsic :: ieee_exceptions, only: ieee_get_halting_mode, ieee_overflow
-        call ieee_get_halting_mode(ieee_overflow, overflow_traps)
-    end function overflow_traps
 
     ! ------------------------------------------------------------------ 1, 14: limits
 

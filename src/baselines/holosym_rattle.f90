@@ -213,7 +213,11 @@ contains
             call set_status(status, HOLOSYM_SIZE_MISMATCH, "q, p and the system must have " // &
                 "the sizes given to init (n = " // int_str(self%n) // ")")
             return
-        else if (.not. (is_finite(h) .and. h > 0)) then
+        else if (.not. is_finite(h)) then
+            call set_status(status, HOLOSYM_INVALID_STEP_SIZE, "step size must be positive " // &
+                "and finite; got h = " // real_str(h))
+            return
+        else if (h <= 0) then
             call set_status(status, HOLOSYM_INVALID_STEP_SIZE, "step size must be positive " // &
                 "and finite; got h = " // real_str(h))
             return

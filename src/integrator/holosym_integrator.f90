@@ -346,7 +346,7 @@ contains
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: position, velocity, scaled_position, scaled_velocity
+        real(wp) :: position, velocity, scaled_position, scaled_velocity, hp(size(q))
         character(len=:), allocatable :: rank_message
 
         if (.not. self%ready) then
@@ -377,7 +377,7 @@ contains
             call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, rank_message)
         else
             call state_residuals(self, sys, q, p, position, velocity, scaled_position, &
-                                 scaled_velocity)
+                                 scaled_velocity, hp)
             if (.not. (is_finite(scaled_position) .and. is_finite(scaled_velocity))) then
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, &
                     "constraint, constraint_jacobian " &
@@ -393,6 +393,12 @@ contains
                     "constraint: max|Phi H_p| = " // real_str(velocity) // " (scaled " // &
                     real_str(scaled_velocity) // " > tolerance " // &
                     real_str(self%manifold_tolerance) // "); project it first")
+            else if (h < epsilon(h) * state_resolution(self, q, p, hp)) then
+                ! Far below the resolution: the step would move nothing, and its equations
+                ! would overflow (1/h) in the real64 parts of the solve.
+                call set_status(status, HOLOSYM_STEP_TOO_SMALL, "step size h = " // &
+                    real_str(h) // " is far below the resolution of this state (about h = " &
+                    // real_str(state_resolution(self, q, p, hp)) // "); use h >= that")
             else
                 call set_status(status, HOLOSYM_SUCCESS, "")
             end if
@@ -968,18 +974,27 @@ contains
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:), p(:)
         real(wp) :: limit
-        real(wp) :: scale, mass, velocity, level
         call sys%dh_dp(q, p, self%hp_work)
-        scale = max(maxval(abs(q)), maxval(abs(p)))
+        limit = state_resolution(self, q, p, self%hp_work)
+    end function resolution_limit
+
+    !> `resolution_limit` from the velocity field hp = H_p(q, p); 0 when a value is not
+    !! finite.
+    pure function state_resolution(self, q, p, hp) result(limit)
+        class(constrained_integrator), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:), hp(:)
+        real(wp) :: limit
+        real(wp) :: scale, mass, velocity, level
         limit = 0
-        if (.not. (is_finite(scale) .and. all(is_finite(self%hp_work)))) return
+        if (.not. (all(is_finite(q)) .and. all(is_finite(p)) .and. all(is_finite(hp)))) return
+        scale = max(maxval(abs(q)), maxval(abs(p)))
         if (.not. scale > 0) scale = 1
-        velocity = maxval(abs(self%hp_work))
+        velocity = maxval(abs(hp))
         mass = 1
         if (velocity > 0 .and. maxval(abs(p)) > 0) mass = maxval(abs(p)) / velocity
         level = max(self%newton%stagnation_level, self%newton%tolerance)
         limit = resolution_margin * epsilon(1.0_wp) * maxval(abs(q)) * mass / (level * scale)
-    end function resolution_limit
+    end function state_resolution
 
     !> One Newton iteration of the step of size h from (q, p) at the constant guess, on the
     !! plain path (working-precision LU; real64 factors where only the reduced step exists):

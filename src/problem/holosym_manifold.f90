@@ -1,6 +1,7 @@
 !> The constraint manifold {phi(q) = 0, Phi(q) H_p(q, p) = 0}: residuals of a state, scaled
 !! so that a tolerance tied to epsilon means "at round-off level", and the rank test of Phi.
 module holosym_manifold
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
     use holosym_problem, only: constrained_hamiltonian
     use holosym_linalg, only: lu_factor
@@ -19,7 +20,8 @@ contains
 
     !> Residuals of a state: `position = max|phi(q)|`, `velocity = max|Phi(q) H_p(q,p)|`,
     !! and the same divided by their round-off scales, 1 + |q| |Phi_l| for phi_l and
-    !! 1 + sum_i |Phi_li| |H_p,i| for the hidden constraint l.
+    !! 1 + sum_i |Phi_li| |H_p,i| for the hidden constraint l. All are NaN when the system
+    !! returns a NaN or infinite value.
     subroutine manifold_residuals(sys, q, p, position, velocity, scaled_position, &
                                   scaled_velocity, velocity_field)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
@@ -45,6 +47,10 @@ contains
         call sys%constraint_jacobian(q, jac)
         call sys%dh_dp(q, p, hp)
         if (present(velocity_field)) velocity_field = hp
+        if (.not. (all(is_finite(phi)) .and. all(is_finite(jac)) .and. all(is_finite(hp)))) then
+            call not_finite(position, velocity, scaled_position, scaled_velocity)
+            return
+        end if
         hidden = matmul(jac, hp)
         position = maxval(abs(phi))
         velocity = maxval(abs(hidden))
@@ -87,6 +93,11 @@ contains
         call sys%constraint_jacobian_values(q, rows, columns, values)
         call sys%dh_dp(q, p, hp)
         if (present(velocity_field)) velocity_field = hp
+        if (.not. (all(is_finite(phi)) .and. all(is_finite(values)) .and. &
+                   all(is_finite(hp)))) then
+            call not_finite(position, velocity, scaled_position, scaled_velocity)
+            return
+        end if
         hidden = 0
         row_max = 0
         row_sum = 0
@@ -101,6 +112,17 @@ contains
         scaled_position = maxval(abs(phi) / (1 + maxval(abs(q)) * row_max))
         scaled_velocity = maxval(abs(hidden) / (1 + row_sum))
     end subroutine sparse_manifold_residuals
+
+    !> All residuals NaN: the system returned a NaN or infinite value (the callers report
+    !! it); computing with it would raise IEEE exceptions (0 * Inf).
+    subroutine not_finite(position, velocity, scaled_position, scaled_velocity)
+        real(wp), intent(out) :: position, velocity
+        real(wp), intent(out), optional :: scaled_position, scaled_velocity
+        position = ieee_value(position, ieee_quiet_nan)
+        velocity = position
+        if (present(scaled_position)) scaled_position = position
+        if (present(scaled_velocity)) scaled_velocity = position
+    end subroutine not_finite
 
     !> `full_rank_constraints` for a sparse Phi: the Cholesky factorisation of Phi Phi^T in
     !! band storage, constraints taken in `order` (for which the Gram matrix should be

@@ -17,6 +17,8 @@
 !! in the real64 build, for everything. The LAPACK/BLAS calls run one thread at a time
 !! (an OpenMP critical section): a serial OpenBLAS is not safe for concurrent calls.
 module holosym_linalg
+    ! IEEE classification of the entries: no ordered comparison ever sees a NaN.
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp
     implicit none
     private
@@ -102,9 +104,10 @@ contains
 
     !> LU factorisation P A = L U with partial (row) pivoting, in place.
     !!
-    !! `info`: 0 success; -1 `a` not square; -2 `pivots` too short; k > 0 when the k-th
-    !! pivot is at most `tolerance * max|A|` (singular to working precision; the factors are
-    !! then incomplete and must not be used). All-zero and empty matrices: see below.
+    !! `info`: 0 success; -1 `a` not square; -2 `pivots` too short; -4 `tolerance` not
+    !! finite; k > 0 when the k-th pivot is at most `tolerance * max|A|` (singular to working
+    !! precision; the factors are then incomplete and must not be used), or when column k is
+    !! the first with a NaN or infinite entry. All-zero and empty matrices: see below.
     pure subroutine lu_factor(a, pivots, info, tolerance, pivot_ratio)
         real(wp), intent(inout) :: a(:, :)  !! on entry A (n x n); on exit L (unit, below) and U
         integer, intent(out) :: pivots(:)   !! row interchanges: row k was swapped with pivots(k)
@@ -118,10 +121,23 @@ contains
         if (present(pivot_ratio)) pivot_ratio = 0
         info = argument_info(n, size(a, 2), size(pivots))
         if (info /= 0) return
+        if (present(tolerance)) then
+            if (.not. ieee_is_finite(tolerance)) then
+                info = -4
+                return
+            end if
+        end if
         if (n == 0) then
             if (present(pivot_ratio)) pivot_ratio = 1
             return
         end if
+        ! A NaN or infinite entry: singular at the first column holding one.
+        do k = 1, n
+            if (.not. all(ieee_is_finite(a(:, k)))) then
+                info = k
+                return
+            end if
+        end do
         scale = maxval(abs(a))
         if (present(tolerance)) then
             threshold = tolerance * scale
@@ -202,8 +218,9 @@ contains
 
     !> LU factorisation of a real64 matrix with LAPACK's dgetf2 (dgetrf for n >= 32), with
     !! the same contract as
-    !! `lu_factor`: `info` 0 success, -1 not square, -2 `pivots` too short, k > 0 when the
-    !! k-th pivot is at most `tolerance * max|A|` (default n * epsilon(1.0_dp)).
+    !! `lu_factor`: `info` 0 success, -1 not square, -2 `pivots` too short, -4 `tolerance`
+    !! not finite, k > 0 when the k-th pivot is at most `tolerance * max|A|` (default
+    !! n * epsilon(1.0_dp)) or column k is the first with a NaN or infinite entry.
     subroutine lu_factor_dp(a, pivots, info, tolerance, pivot_ratio)
         real(dp), intent(inout), contiguous :: a(:, :) !! A (n x n) in, LAPACK factors out
         integer, intent(out) :: pivots(:)   !! row interchanges (LAPACK ipiv)
@@ -217,10 +234,23 @@ contains
         if (present(pivot_ratio)) pivot_ratio = 0
         info = argument_info(n, size(a, 2), size(pivots))
         if (info /= 0) return
+        if (present(tolerance)) then
+            if (.not. ieee_is_finite(tolerance)) then
+                info = -4
+                return
+            end if
+        end if
         if (n == 0) then
             if (present(pivot_ratio)) pivot_ratio = 1
             return
         end if
+        ! A NaN or infinite entry: singular at the first column holding one.
+        do k = 1, n
+            if (.not. all(ieee_is_finite(a(:, k)))) then
+                info = k
+                return
+            end if
+        end do
         scale = maxval(abs(a))
         if (present(tolerance)) then
             threshold = tolerance * scale

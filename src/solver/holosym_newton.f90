@@ -260,7 +260,12 @@ contains
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, eval_status%message)
             return
         end if
-        if (.not. is_finite(scale) .or. scale < 0) then
+        ! Finiteness first: an ordered comparison with a NaN raises 'invalid'.
+        if (.not. is_finite(scale)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "scale must be >= 0 and " // &
+                "finite, got " // real_str(scale))
+            return
+        else if (scale < 0) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "scale must be >= 0 and " // &
                 "finite, got " // real_str(scale))
             return
