@@ -6,7 +6,9 @@
 !! `run_command` and one line to `cli_help`. Nothing here stops the program: the main
 !! program turns `exit_code` into the process exit status.
 module holosym_cli
-    use holosym_cli_common, only: cli_argument_t, join_lines, EXIT_OK, EXIT_USAGE
+    use holosym_status, only: holosym_status_t
+    use holosym_output, only: output_t, standard_output
+    use holosym_cli_common, only: cli_argument_t, join_lines, EXIT_OK, EXIT_USAGE, EXIT_FAILURE
     use holosym_cli_simulate, only: simulate_command
     use holosym_cli_tables, only: tables_command
     use holosym_cli_bench, only: bench_command
@@ -44,15 +46,20 @@ contains
             "Exit status: 0 success, 1 the command failed, 2 bad usage."])
     end function cli_help
 
-    !> Run the command line `args` (without the program name). Output goes to `out_unit`,
-    !! messages to `err_unit`; `exit_code` is 0 on success, 1 when a command failed and
-    !! 2 on a usage error (no or unknown command, bad options).
-    subroutine cli_run(args, out_unit, err_unit, exit_code)
+    !> Run the command line `args` (without the program name). Results and help go to
+    !! standard output, messages to `err_unit`; `exit_code` is 0 on success, 1 when a
+    !! command failed (also when its results could not be written) and 2 on a usage error
+    !! (no or unknown command, bad options).
+    subroutine cli_run(args, err_unit, exit_code)
         type(cli_argument_t), intent(in) :: args(:) !! command-line arguments
-        integer, intent(in) :: out_unit   !! unit for results and help
         integer, intent(in) :: err_unit   !! unit for progress and errors
         integer, intent(out) :: exit_code !! process exit code
+        type(output_t) :: out
+        type(holosym_status_t) :: status
+        character(len=:), allocatable :: name
 
+        out = standard_output()
+        name = "holosym"
         if (size(args) == 0) then
             write (err_unit, '(a)') cli_help()
             exit_code = EXIT_USAGE
@@ -60,37 +67,45 @@ contains
         end if
         select case (args(1)%text)
         case ("-h", "--help")
-            write (out_unit, '(a)') cli_help()
+            call out%line(cli_help())
             exit_code = EXIT_OK
         case ("help")
             if (size(args) == 1) then
-                write (out_unit, '(a)') cli_help()
+                call out%line(cli_help())
                 exit_code = EXIT_OK
             else
-                call run_command(args(2)%text, [cli_argument_t("--help")], out_unit, &
-                                 err_unit, exit_code)
+                name = "holosym " // args(2)%text
+                call run_command(args(2)%text, [cli_argument_t("--help")], out, err_unit, &
+                                 exit_code)
             end if
         case default
-            call run_command(args(1)%text, args(2:), out_unit, err_unit, exit_code)
+            name = "holosym " // args(1)%text
+            call run_command(args(1)%text, args(2:), out, err_unit, exit_code)
         end select
+        ! A command that succeeded fails when its output could not be written.
+        call out%close(status)
+        if (.not. status%ok() .and. exit_code == EXIT_OK) then
+            write (err_unit, '(a)') name // ": error: " // status%message
+            exit_code = EXIT_FAILURE
+        end if
     end subroutine cli_run
 
     !> Dispatch to the command called `name` with its arguments.
-    subroutine run_command(name, args, out_unit, err_unit, exit_code)
+    subroutine run_command(name, args, out, err_unit, exit_code)
         character(len=*), intent(in) :: name        !! the command
         type(cli_argument_t), intent(in) :: args(:) !! its arguments
-        integer, intent(in) :: out_unit   !! unit for results and help
+        type(output_t), intent(inout) :: out   !! results and help
         integer, intent(in) :: err_unit   !! unit for progress and errors
         integer, intent(out) :: exit_code !! process exit code
         select case (name)
         case ("simulate")
-            call simulate_command(args, out_unit, err_unit, exit_code)
+            call simulate_command(args, out, err_unit, exit_code)
         case ("tables")
-            call tables_command(args, out_unit, err_unit, exit_code)
+            call tables_command(args, out, err_unit, exit_code)
         case ("bench")
-            call bench_command(args, out_unit, err_unit, exit_code)
+            call bench_command(args, out, err_unit, exit_code)
         case ("extremes")
-            call extremes_command(args, out_unit, err_unit, exit_code)
+            call extremes_command(args, out, err_unit, exit_code)
         case default
             write (err_unit, '(a)') "holosym: unknown command '" // name // &
                 "'; run 'holosym --help' for the list of commands"

@@ -9,13 +9,15 @@
 module holosym_cli_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS
+    use holosym_status, only: holosym_status_t, int_str, real_str, status_code_name, &
+        HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_benchmark, only: bench_row_t, bench_settings_t, reference_state, holosym_run, &
         sweep_holosym, sweep_rattle, variant_name, bench_span, competitor_seconds, &
         competitor_targets, bench_targets, variant_count
+    use holosym_output, only: output_t, open_output, make_directories
     use holosym_cli_common, only: parsed_command_proceeds, &
-        cli_argument_t, split_option, option_value, parse_integer, &
+        cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
     use holosym_systems, only: make_system, system_choices
     implicit none
@@ -34,6 +36,10 @@ module holosym_cli_bench
     integer, parameter :: per_step_configs(3, 2) = reshape([2, 1, 3, 7, 6, 8], [3, 2])
     !> Largest step of the sweeps.
     real(wp), parameter :: sweep_h0 = 1
+    !> Largest --budget, in CPU seconds per run.
+    real(wp), parameter :: max_budget = 3600
+    !> Largest time of a run read back by --summarize (a bound that keeps ratios finite).
+    real(wp), parameter :: max_seconds = 1.0e12_wp
     !> Method of a per-step row: this prefix and the option set 0 .. variant_count.
     character(len=*), parameter :: variant_prefix = "variant-"
     !> CSV header of bench rows.
@@ -78,15 +84,17 @@ contains
             "and the per-step cost of each speed option against the plain path.", &
             "", &
             "Options:", &
-            "  --out DIR        output directory (default build/bench)", &
+            "  --out DIR        output directory, created when missing (default build/bench)", &
             "  --systems LIST   comma list of pendulum, linkage, planar (default all)", &
-            "  --Mmax M         largest M (default 8)", &
-            "  --order P        largest RATTLE composition order (default 10)", &
-            "  --budget S       stop refining h once a run takes S CPU seconds (default 1.5)", &
+            "  --Mmax M         largest M, 1..12 (default 8)", &
+            "  --order P        largest RATTLE composition order, 2..10 (default 10)", &
+            "  --budget S       stop refining h once a run takes S CPU seconds, 0 < S <= 3600", &
+            "                   (default 1.5)", &
             "  --quick          M <= 4, orders <= 6, budget 0.2 s (about a minute)", &
             "  --no-per-step    skip the per-step comparison", &
             "  --reference FILE read the reference states (the real64 build uses the", &
-            "                   real128 one)", &
+            "                   real128 one): lines system,q|p,index,value with finite", &
+            "                   values, every index of q and p of a system exactly once", &
             "  --summarize DIR  only rebuild DIR/summary.md from DIR/bench.csv and bench64.csv", &
             "  --help           this text", &
             "", &
@@ -138,18 +146,14 @@ contains
                     options%systems = value
                     call check_systems(value, status)
                 case ("--Mmax")
-                    call parse_integer(name, value, options%max_m, status)
-                    if (status%ok() .and. (options%max_m < 1 .or. options%max_m > 12)) &
-                        call fail(status, "option --Mmax must be in 1..12; got '" // value // "'")
+                    call parse_integer_in(name, value, 1, 12, options%max_m, status)
                 case ("--order")
-                    call parse_integer(name, value, options%max_rattle_order, status)
-                    if (status%ok() .and. (options%max_rattle_order < 2 .or. &
-                        options%max_rattle_order > 10)) call fail(status, &
-                        "option --order must be in 2..10; got '" // value // "'")
+                    call parse_integer_in(name, value, 2, 10, options%max_rattle_order, status)
                 case ("--budget")
                     call parse_real(name, value, budget, status)
-                    if (status%ok() .and. .not. budget > 0) call fail(status, &
-                        "option --budget must be > 0; got '" // value // "'")
+                    if (status%ok() .and. .not. (budget > 0 .and. budget <= max_budget)) &
+                        call fail(status, "option --budget must be in (0, 3600]; got '" // &
+                        value // "'")
                     options%budget = real(budget, real64)
                 end select
                 if (.not. status%ok()) return
@@ -213,33 +217,30 @@ contains
     end function int64_str
 
     !> Write rows as CSV (the header line, then one line per row), the format
-    !! `read_bench_csv` reads. Failure: HOLOSYM_INVALID_ARGUMENT naming the file.
+    !! `read_bench_csv` reads. Failure: HOLOSYM_INVALID_ARGUMENT naming the file and the
+    !! system's reason (also a full disk).
     subroutine write_bench_csv(path, rows, status)
         character(len=*), intent(in) :: path        !! file, replaced
         type(bench_row_t), intent(in) :: rows(:)    !! rows to write
         type(holosym_status_t), intent(inout) :: status !! I/O failure
-        integer :: unit, ios, i
-        character(len=256) :: message
-        open (newunit=unit, file=path, status="replace", action="write", iostat=ios, &
-              iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // path // ": " // trim(message))
-            return
-        end if
-        write (unit, '(a)', iostat=ios, iomsg=message) csv_header
+        type(output_t) :: file
+        integer :: i
+        call open_output(path, file, status)
+        if (.not. status%ok()) return
+        call file%line(csv_header)
         do i = 1, size(rows)
-            if (ios /= 0) exit
-            write (unit, '(a)', iostat=ios, iomsg=message) csv_line(rows(i))
+            call file%line(csv_line(rows(i)))
         end do
-        close (unit)
-        if (ios /= 0) call fail(status, "cannot write " // path // ": " // trim(message))
+        call file%close(status)
     end subroutine write_bench_csv
 
     !> Read rows written by `write_bench_csv` and append them to `rows`. A missing file
     !! gives no rows and no error when `optional_file`. Failure (HOLOSYM_INVALID_ARGUMENT:
     !! an unreadable file, no bench header, a line without 21 fields, a field that is not a
-    !! number, a per-step row whose method is not variant-0 .. variant-9) names the file,
-    !! the line and the field; `rows` is then unchanged.
+    !! number or out of its range, a per-step row whose method is not variant-0 ..
+    !! variant-9) names the file, the line and the field; `rows` is then unchanged. Ranges:
+    !! finite reals (no NaN or Inf); h > 0; M, N, G, order, steps, the errors, seconds
+    !! (at most 1e12), the work counts and the difference >= 0; status a documented code.
     subroutine read_bench_csv(path, rows, status, optional_file)
         character(len=*), intent(in) :: path !! CSV file
         type(bench_row_t), allocatable, intent(inout) :: rows(:) !! rows are appended
@@ -301,41 +302,32 @@ contains
             row%system = fields(1)
             row%method = fields(2)
             row%precision = fields(3)
-            read (fields(4), *, iostat=ios) row%order_m
-            if (.not. field_ok(4)) return
-            read (fields(5), *, iostat=ios) row%order_n
-            if (.not. field_ok(5)) return
-            read (fields(6), *, iostat=ios) row%gauss_points
-            if (.not. field_ok(6)) return
-            read (fields(7), *, iostat=ios) row%order
-            if (.not. field_ok(7)) return
-            read (fields(8), *, iostat=ios) row%h
-            if (.not. field_ok(8)) return
-            read (fields(9), *, iostat=ios) row%steps
-            if (.not. field_ok(9)) return
-            read (fields(10), *, iostat=ios) row%error
-            if (.not. field_ok(10)) return
-            read (fields(11), *, iostat=ios) row%energy_error
-            if (.not. field_ok(11)) return
-            read (fields(12), *, iostat=ios) row%constraint_residual
-            if (.not. field_ok(12)) return
-            read (fields(13), *, iostat=ios) value
-            if (.not. field_ok(13)) return
+            if (.not. integer_field(4, 0, row%order_m)) return
+            if (.not. integer_field(5, 0, row%order_n)) return
+            if (.not. integer_field(6, 0, row%gauss_points)) return
+            if (.not. integer_field(7, 0, row%order)) return
+            if (.not. real_field(8, row%h, .true.)) return
+            if (.not. integer_field(9, 0, row%steps)) return
+            if (.not. real_field(10, row%error)) return
+            if (.not. real_field(11, row%energy_error)) return
+            if (.not. real_field(12, row%constraint_residual)) return
+            if (.not. real_field(13, value)) return
+            if (.not. seconds_ok(13, value)) return
             row%seconds = real(value, real64)
-            read (fields(15), *, iostat=ios) row%newton_iterations
-            if (.not. field_ok(15)) return
-            read (fields(16), *, iostat=ios) row%residuals
-            if (.not. field_ok(16)) return
-            read (fields(17), *, iostat=ios) row%gradients
-            if (.not. field_ok(17)) return
-            read (fields(18), *, iostat=ios) row%hessians
-            if (.not. field_ok(18)) return
-            read (fields(19), *, iostat=ios) row%factorizations
-            if (.not. field_ok(19)) return
-            read (fields(20), *, iostat=ios) row%code
-            if (.not. field_ok(20)) return
-            read (fields(21), *, iostat=ios) row%difference
-            if (.not. field_ok(21)) return
+            if (.not. real_field(14, value)) return
+            if (.not. seconds_ok(14, value)) return
+            if (.not. count_field(15, row%newton_iterations)) return
+            if (.not. count_field(16, row%residuals)) return
+            if (.not. count_field(17, row%gradients)) return
+            if (.not. count_field(18, row%hessians)) return
+            if (.not. count_field(19, row%factorizations)) return
+            if (.not. integer_field(20, -huge(1), row%code)) return
+            if (status_code_name(row%code) == "unknown status") then
+                call bad_line("field status is not a holosym status code: '" // &
+                    trim(fields(20)) // "'")
+                return
+            end if
+            if (.not. real_field(21, row%difference)) return
             if (index(row%method, variant_prefix) == 1 .and. step_variant(row%method) < 0) then
                 call bad_line("method '" // trim(row%method) // "' is not " // variant_prefix &
                     // "0 .. " // variant_prefix // int_str(variant_count))
@@ -348,13 +340,60 @@ contains
 
     contains
 
-        !> Whether the field just read was a number; if not, fail naming it.
-        logical function field_ok(k)
-            integer, intent(in) :: k !! field index
-            field_ok = ios == 0
-            if (.not. field_ok) call bad_line("field " // trim(field_names(k)) // &
-                " is not a number: '" // trim(fields(k)) // "'")
-        end function field_ok
+        !> Field k as an integer >= lower, or fail naming it.
+        logical function integer_field(k, lower, value) result(ok)
+            integer, intent(in) :: k, lower
+            integer, intent(out) :: value
+            type(holosym_status_t) :: local
+            call parse_integer(trim(field_names(k)), trim(fields(k)), value, local)
+            ok = local%ok()
+            if (ok) ok = value >= lower
+            if (.not. ok) call bad_line("field " // trim(field_names(k)) // " is not " // &
+                merge("an integer >= 0", "an integer     ", lower == 0) // ": '" // &
+                trim(fields(k)) // "'")
+        end function integer_field
+
+        !> Field k as a count (an int64 >= 0), or fail naming it.
+        logical function count_field(k, value) result(ok)
+            integer, intent(in) :: k
+            integer(int64), intent(out) :: value
+            integer :: ios
+            value = 0
+            ok = len_trim(fields(k)) >= 1 .and. len_trim(fields(k)) <= 18 .and. &
+                verify(trim(fields(k)), "0123456789") == 0
+            if (ok) then
+                read (fields(k), *, iostat=ios) value
+                ok = ios == 0
+            end if
+            if (.not. ok) call bad_line("field " // trim(field_names(k)) // &
+                " is not a count >= 0: '" // trim(fields(k)) // "'")
+        end function count_field
+
+        !> Field k as a finite real >= 0 (> 0 with `positive`), or fail naming it.
+        logical function real_field(k, value, positive) result(ok)
+            integer, intent(in) :: k
+            real(wp), intent(out) :: value
+            logical, intent(in), optional :: positive
+            type(holosym_status_t) :: local
+            logical :: strict
+            strict = .false.
+            if (present(positive)) strict = positive
+            call parse_real(trim(field_names(k)), trim(fields(k)), value, local)
+            ok = local%ok()
+            if (ok) ok = value >= 0
+            if (ok .and. strict) ok = value > 0
+            if (.not. ok) call bad_line("field " // trim(field_names(k)) // " is not a " // &
+                merge("number > 0 ", "number >= 0", strict) // ": '" // trim(fields(k)) // "'")
+        end function real_field
+
+        !> Seconds of field k at most `max_seconds`, or fail naming it.
+        logical function seconds_ok(k, value) result(ok)
+            integer, intent(in) :: k
+            real(wp), intent(in) :: value
+            ok = value <= max_seconds
+            if (.not. ok) call bad_line("field " // trim(field_names(k)) // " is more than " &
+                // "1e12 seconds: '" // trim(fields(k)) // "'")
+        end function seconds_ok
 
         !> Fail naming the file and line; close the file.
         subroutine bad_line(reason)
@@ -376,7 +415,11 @@ contains
         if (ios /= 0 .or. step_variant < 0 .or. step_variant > variant_count) step_variant = -1
     end function step_variant
 
-    !> Reference states: read "system,q or p,index,value" lines, or compute and write them.
+    !> Reference states: read "system,q or p,index,value" lines, or compute and write them
+    !! (appended to DIR/reference.csv). A file to read must hold, for `system`, every index
+    !! 1..n of q and of p exactly once with a finite value; lines of other systems and
+    !! lines starting with '#' are skipped. Failure (HOLOSYM_INVALID_ARGUMENT) names the
+    !! file, the line and what is wrong.
     subroutine reference_for(system, sys, q0, p0, options, q_ref, p_ref, err_unit, status)
         character(len=*), intent(in) :: system
         class(constrained_hamiltonian), intent(in) :: sys
@@ -385,34 +428,77 @@ contains
         real(wp), intent(out) :: q_ref(:), p_ref(:)
         integer, intent(in) :: err_unit
         type(holosym_status_t), intent(inout) :: status
-        character(len=256) :: line
-        character(len=16) :: name, kind
-        integer :: unit, ios, index_value, found, k, system_index
-        real(wp) :: value, change
+        character(len=1024) :: line
         character(len=256) :: message
+        character(len=:), allocatable :: fields(:)
+        logical :: seen(size(q_ref), 2)
+        integer :: unit, ios, index_value, k, system_index, line_number, kind
+        real(wp) :: value, change
+        type(holosym_status_t) :: local
+        type(output_t) :: file
         if (len(options%reference) > 0) then
-            open (newunit=unit, file=options%reference, status="old", action="read", iostat=ios)
+            open (newunit=unit, file=options%reference, status="old", action="read", &
+                  iostat=ios, iomsg=message)
             if (ios /= 0) then
-                call fail(status, "cannot read reference file " // options%reference)
+                call fail(status, "cannot read reference file " // options%reference // ": " &
+                    // trim(message))
                 return
             end if
-            found = 0
+            seen = .false.
+            line_number = 0
             do
                 read (unit, '(a)', iostat=ios) line
                 if (ios /= 0) exit
-                do k = 1, len_trim(line)
-                    if (line(k:k) == ",") line(k:k) = " "
-                end do
-                read (line, *, iostat=ios) name, kind, index_value, value
-                if (ios /= 0 .or. trim(name) /= system) cycle
-                if (index_value < 1 .or. index_value > size(q_ref)) cycle
-                if (kind == "q") q_ref(index_value) = value
-                if (kind == "p") p_ref(index_value) = value
-                found = found + 1
+                line_number = line_number + 1
+                if (len_trim(line) == 0) cycle
+                if (line(1:1) == "#") cycle
+                call split_fields(trim(line), fields)
+                if (size(fields) /= 4) then
+                    call bad("expected 4 comma-separated fields: system,q|p,index,value")
+                    return
+                end if
+                if (trim(fields(1)) /= system) cycle
+                select case (trim(fields(2)))
+                case ("q")
+                    kind = 1
+                case ("p")
+                    kind = 2
+                case default
+                    call bad("the second field must be q or p; got '" // trim(fields(2)) // "'")
+                    return
+                end select
+                call parse_integer("index", trim(fields(3)), index_value, local)
+                if (.not. local%ok()) index_value = 0
+                if (index_value < 1 .or. index_value > size(q_ref)) then
+                    call bad("index must be in 1.." // int_str(size(q_ref)) // " for " // &
+                        system // "; got '" // trim(fields(3)) // "'")
+                    return
+                end if
+                if (seen(index_value, kind)) then
+                    call bad(trim(fields(2)) // "(" // trim(fields(3)) // ") of " // system // &
+                        " given twice")
+                    return
+                end if
+                call parse_real("value", trim(fields(4)), value, local)
+                if (.not. local%ok()) then
+                    call bad("the value is not a finite number: '" // trim(fields(4)) // "'")
+                    return
+                end if
+                seen(index_value, kind) = .true.
+                if (kind == 1) q_ref(index_value) = value
+                if (kind == 2) p_ref(index_value) = value
             end do
             close (unit)
-            if (found /= 2 * size(q_ref)) call fail(status, "reference file " // &
-                options%reference // " lacks system " // system)
+            do kind = 1, 2
+                do k = 1, size(q_ref)
+                    if (.not. seen(k, kind)) then
+                        call fail(status, "reference file " // options%reference // &
+                            " lacks " // merge("q", "p", kind == 1) // "(" // int_str(k) // &
+                            ") of system " // system)
+                        return
+                    end if
+                end do
+            end do
             return
         end if
         system_index = findloc(bench_systems, system, dim=1)
@@ -423,25 +509,89 @@ contains
             // real_str(reference_steps(system_index) / 2) // "; it differs from h = " // &
             real_str(reference_steps(system_index)) // " by " // real_str(change) // &
             ", so its own error is about " // real_str(change / (2.0_wp**16 - 1))
-        open (newunit=unit, file=options%out_dir // "/reference.csv", position="append", &
-              action="write", iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // options%out_dir // "/reference.csv: " // &
-                trim(message))
-            return
-        end if
+        ! Appended: the file holds the references of the systems run before this one.
+        call read_text(options%out_dir // "/reference.csv", fields, status)
+        if (.not. status%ok()) return
+        call open_output(options%out_dir // "/reference.csv", file, status)
+        if (.not. status%ok()) return
+        do k = 1, size(fields)
+            call file%line(trim(fields(k)))
+        end do
         do k = 1, size(q_ref)
-            write (unit, '(a)') system // ",q," // int_str(k) // "," // csv_real(q_ref(k))
+            call file%line(system // ",q," // int_str(k) // "," // csv_real(q_ref(k)))
         end do
         do k = 1, size(p_ref)
-            write (unit, '(a)') system // ",p," // int_str(k) // "," // csv_real(p_ref(k))
+            call file%line(system // ",p," // int_str(k) // "," // csv_real(p_ref(k)))
         end do
-        write (unit, '(a)') "# " // system // ": M = 8, h = " // &
+        call file%line("# " // system // ": M = 8, h = " // &
             real_str(reference_steps(system_index)) // " and h/2 differ by " // &
             real_str(change) // "; estimated error of the h/2 run " // &
-            real_str(change / (2.0_wp**16 - 1))
-        close (unit)
+            real_str(change / (2.0_wp**16 - 1)))
+        call file%close(status)
+
+    contains
+
+        !> Fail naming the reference file and the line.
+        subroutine bad(reason)
+            character(len=*), intent(in) :: reason
+            call fail(status, options%reference // ": line " // int_str(line_number) // &
+                ": " // reason)
+            close (unit)
+        end subroutine bad
+
     end subroutine reference_for
+
+    !> The comma-separated fields of a line (blanks kept).
+    pure subroutine split_fields(line, fields)
+        character(len=*), intent(in) :: line
+        character(len=:), allocatable, intent(out) :: fields(:)
+        integer :: count, first, comma, k
+        count = 1
+        do k = 1, len(line)
+            if (line(k:k) == ",") count = count + 1
+        end do
+        allocate (character(len=max(len(line), 1)) :: fields(count))
+        first = 1
+        do k = 1, count
+            comma = index(line(first:), ",")
+            if (comma == 0) then
+                fields(k) = line(first:)
+            else
+                fields(k) = line(first:first + comma - 2)
+                first = first + comma
+            end if
+        end do
+    end subroutine split_fields
+
+    !> The lines of a text file (none when it does not exist).
+    subroutine read_text(path, lines, status)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable, intent(out) :: lines(:)
+        type(holosym_status_t), intent(inout) :: status
+        character(len=1024) :: line
+        character(len=256) :: message
+        character(len=1024), allocatable :: kept(:)
+        integer :: unit, ios
+        logical :: exists
+        allocate (kept(0))
+        inquire (file=path, exist=exists)
+        if (exists) then
+            open (newunit=unit, file=path, status="old", action="read", iostat=ios, &
+                  iomsg=message)
+            if (ios /= 0) then
+                call fail(status, "cannot read " // path // ": " // trim(message))
+                return
+            end if
+            do
+                read (unit, '(a)', iostat=ios) line
+                if (ios /= 0) exit
+                kept = [character(len=1024) :: kept, line]
+            end do
+            close (unit)
+        end if
+        allocate (character(len=1024) :: lines(size(kept)))
+        lines = kept
+    end subroutine read_text
 
     !> Run the benchmark.
     subroutine run_bench(options, err_unit, rows, steps_rows, status)
@@ -455,23 +605,19 @@ contains
         type(bench_settings_t) :: settings
         type(bench_row_t) :: row
         type(holosym_status_t) :: run_status
-        integer :: s, order_m, gauss_points, order, family, variant, config, ios
-        character(len=256) :: message
+        integer :: s, order_m, gauss_points, order, family, variant, config
+        type(output_t) :: file
         character(len=11), parameter :: families(2) = [character(len=11) :: "triple-jump", &
                                                         "suzuki"]
         allocate (rows(0), steps_rows(0))
         settings%budget = options%budget
         settings%progress_unit = err_unit
         if (len(options%reference) == 0) then
-            open (newunit=s, file=options%out_dir // "/reference.csv", status="replace", &
-                  action="write", iostat=ios, iomsg=message)
-            if (ios /= 0) then
-                call fail(status, "cannot write " // options%out_dir // "/reference.csv: " &
-                    // trim(message))
-                return
-            end if
-            write (s, '(a)') "# reference states q(T), p(T): system,q|p,index,value"
-            close (s)
+            call open_output(options%out_dir // "/reference.csv", file, status)
+            if (.not. status%ok()) return
+            call file%line("# reference states q(T), p(T): system,q|p,index,value")
+            call file%close(status)
+            if (.not. status%ok()) return
         end if
         do s = 1, size(bench_systems)
             if (.not. selected(options%systems, bench_systems(s))) cycle
@@ -549,6 +695,17 @@ contains
         text = trim(adjustl(buffer))
     end function seconds_text
 
+    !> ratio_text(a / b), or "—" when b is 0 (a run too fast to time, no steps).
+    function quotient_text(a, b) result(text)
+        real(real64), intent(in) :: a, b
+        character(len=:), allocatable :: text
+        if (b > 0) then
+            text = ratio_text(a / b)
+        else
+            text = "—"
+        end if
+    end function quotient_text
+
     function ratio_text(ratio) result(text)
         real(real64), intent(in) :: ratio
         character(len=:), allocatable :: text
@@ -562,7 +719,11 @@ contains
         type(bench_row_t), intent(in) :: row
         character(len=:), allocatable :: text
         character(len=16) :: buffer
-        write (buffer, '(g0.4)') real(row%h, real64)
+        if (row%h <= huge(1.0_real64)) then
+            write (buffer, '(g0.4)') real(row%h, real64)
+        else
+            buffer = real_str(row%h)
+        end if
         if (index(row%method, "holosym") == 1) then
             text = "(" // int_str(row%order_m) // "," // int_str(row%order_n) // "," // &
                 int_str(row%gauss_points) // ") h=" // trim(buffer)
@@ -573,31 +734,31 @@ contains
 
     !> The Markdown summary: per target and system the cheapest configuration of holosym
     !! and of RATTLE in holosym, with the competitor table's time and the ratios.
-    subroutine write_summary(rows, steps_rows, unit)
+    subroutine write_summary(rows, steps_rows, out)
         type(bench_row_t), intent(in) :: rows(:)       !! sweep rows (any precision)
         type(bench_row_t), intent(in) :: steps_rows(:) !! per-step comparison rows
-        integer, intent(in) :: unit                    !! output unit
+        type(output_t), intent(inout) :: out           !! where the Markdown goes
         integer :: t, s, best, rival, precision, c, variant, plain
         character(len=:), allocatable :: line, prec
         real(real64) :: table, per_step, plain_step
         real(wp) :: difference
-        write (unit, '(a)') "# holosym work-precision benchmark"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Error = max(|q - q_ref|, |p - p_ref|) at T; CPU seconds on one " // &
+        call out%line("# holosym work-precision benchmark")
+        call out%line("")
+        call out%line("Error = max(|q - q_ref|, |p - p_ref|) at T; CPU seconds on one " // &
             "core, median of 3 for runs under 0.2 s. holosym: all speed options (simplified " // &
             "Newton, mixed-precision LU, real64 pre-solve in the real128 build, exact " // &
             "Hessians, extrapolated guess). RATTLE: " // &
             "composed inside holosym (triple jump or Suzuki), same problem interface. " // &
-            "'table' is the competitor's (GNI_COMP) time from the issue; 'x' = table / holosym."
+            "'table' is the competitor's (GNI_COMP) time from the issue; 'x' = table / holosym.")
         do precision = 2, 1, -1
             prec = merge("real128", "real64 ", precision == 2)
             if (.not. any(rows%precision == prec)) cycle
-            write (unit, '(a)') ""
-            write (unit, '(a)') "## " // trim(prec)
-            write (unit, '(a)') ""
-            write (unit, '(a)') "| target | system | holosym config | holosym s | " // &
-                "RATTLE in holosym | RATTLE s | table s | x table | x RATTLE |"
-            write (unit, '(a)') "|---|---|---|---|---|---|---|---|---|"
+            call out%line("")
+            call out%line("## " // trim(prec))
+            call out%line("")
+            call out%line("| target | system | holosym config | holosym s | " // &
+                "RATTLE in holosym | RATTLE s | table s | x table | x RATTLE |")
+            call out%line("|---|---|---|---|---|---|---|---|---|")
             do t = 1, size(bench_targets)
                 do s = 1, size(bench_systems)
                     if (.not. any(rows%system == bench_systems(s))) cycle
@@ -630,28 +791,28 @@ contains
                         line = line // "— | "
                     end if
                     if (table > 0 .and. best > 0) then
-                        line = line // ratio_text(table / rows(best)%seconds) // " | "
+                        line = line // quotient_text(table, rows(best)%seconds) // " | "
                     else
                         line = line // "— | "
                     end if
                     if (rival > 0 .and. best > 0) then
-                        line = line // ratio_text(rows(rival)%seconds / rows(best)%seconds) &
-                            // " |"
+                        line = line // quotient_text(rows(rival)%seconds, &
+                            rows(best)%seconds) // " |"
                     else
                         line = line // "— |"
                     end if
-                    write (unit, '(a)') line
+                    call out%line(line)
                 end do
             end do
         end do
         if (size(steps_rows) == 0) return
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## Per-step cost of the speed options (spherical pendulum, " // &
-            "h = 1/8, T = 10)"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| (M,N,G) | option set | s / step | x plain | Newton it. / step" // &
-            " | LU / step | gradients / step | max diff. from plain at T |"
-        write (unit, '(a)') "|---|---|---|---|---|---|---|---|"
+        call out%line("")
+        call out%line("## Per-step cost of the speed options (spherical pendulum, " // &
+            "h = 1/8, T = 10)")
+        call out%line("")
+        call out%line("| (M,N,G) | option set | s / step | x plain | Newton it. / step" // &
+            " | LU / step | gradients / step | max diff. from plain at T |")
+        call out%line("|---|---|---|---|---|---|---|---|")
         plain = 0
         do c = 1, size(steps_rows)
             variant = step_variant(steps_rows(c)%method)
@@ -661,45 +822,49 @@ contains
             per_step = steps_rows(c)%seconds / max(steps_rows(c)%steps, 1)
             plain_step = steps_rows(plain)%seconds / max(steps_rows(plain)%steps, 1)
             difference = steps_rows(c)%difference
-            write (unit, '(a)') "| (" // int_str(steps_rows(c)%order_m) // "," // &
+            call out%line("| (" // int_str(steps_rows(c)%order_m) // "," // &
                 int_str(steps_rows(c)%order_n) // "," // int_str(steps_rows(c)%gauss_points) &
                 // ") " // trim(steps_rows(c)%precision) // " | " // variant_name(variant) // &
                 " | " // seconds_text(per_step) // &
-                " | " // ratio_text(plain_step / per_step) // " | " // &
-                ratio_text(real(steps_rows(c)%newton_iterations, real64) / &
-                           steps_rows(c)%steps) // " | " // &
-                ratio_text(real(steps_rows(c)%factorizations, real64) / steps_rows(c)%steps) &
-                // " | " // ratio_text(real(steps_rows(c)%gradients, real64) / &
-                steps_rows(c)%steps) // " | " // trim(real_str(difference)) // " |"
+                " | " // quotient_text(plain_step, per_step) // " | " // &
+                quotient_text(real(steps_rows(c)%newton_iterations, real64), &
+                              real(steps_rows(c)%steps, real64)) // " | " // &
+                quotient_text(real(steps_rows(c)%factorizations, real64), &
+                              real(steps_rows(c)%steps, real64)) // " | " // &
+                quotient_text(real(steps_rows(c)%gradients, real64), &
+                              real(steps_rows(c)%steps, real64)) // " | " // &
+                trim(real_str(difference)) // " |")
         end do
     end subroutine write_summary
 
     !> `holosym bench [options]`. Exit 0 success, 1 failure, 2 usage.
-    subroutine bench_command(args, out_unit, err_unit, exit_code)
+    subroutine bench_command(args, out, err_unit, exit_code)
         type(cli_argument_t), intent(in) :: args(:) !! the command's arguments
-        integer, intent(in) :: out_unit   !! Markdown summary
+        type(output_t), intent(inout) :: out !! Markdown summary
         integer, intent(in) :: err_unit   !! progress and errors
         integer, intent(out) :: exit_code !! process exit code
         type(bench_options_t) :: options
         type(holosym_status_t) :: status
         type(bench_row_t), allocatable :: rows(:), steps_rows(:), all_rows(:)
         character(len=:), allocatable :: dir, csv_name
-        character(len=256) :: message
-        integer :: unit, ios
+        type(output_t) :: file
 
         call parse_bench_options(args, options, status)
         if (.not. parsed_command_proceeds("bench", status, options%help, bench_help(), &
-                                          out_unit, err_unit, exit_code)) return
+                                          out, err_unit, exit_code)) return
         if (len(options%summarize) > 0) then
             dir = options%summarize
         else
             dir = options%out_dir
-            call execute_command_line("mkdir -p '" // dir // "'")
-            call run_bench(options, err_unit, rows, steps_rows, status)
+            call make_directories(dir, status)
+            if (status%ok()) call run_bench(options, err_unit, rows, steps_rows, status)
             csv_name = merge("bench64.csv", "bench.csv  ", wp_is_double)
-            if (status%ok()) call write_bench_csv(dir // "/" // trim(csv_name), rows, status)
-            if (status%ok() .and. size(steps_rows) > 0) call write_bench_csv(dir // &
-                "/" // merge("steps64.csv", "steps.csv  ", wp_is_double), steps_rows, status)
+            if (status%ok()) then
+                call write_bench_csv(dir // "/" // trim(csv_name), rows, status)
+                if (status%ok() .and. size(steps_rows) > 0) call write_bench_csv(dir // &
+                    "/" // merge("steps64.csv", "steps.csv  ", wp_is_double), steps_rows, &
+                    status)
+            end if
         end if
         allocate (all_rows(0))
         if (allocated(steps_rows)) deallocate (steps_rows)
@@ -710,22 +875,17 @@ contains
         if (status%ok()) call read_bench_csv(dir // "/steps64.csv", steps_rows, status, .true.)
         if (status%ok() .and. size(all_rows) + size(steps_rows) == 0) call fail(status, &
             "no bench.csv, bench64.csv, steps.csv or steps64.csv in " // dir)
+        if (status%ok()) call write_summary(all_rows, steps_rows, out)
+        if (status%ok()) call open_output(dir // "/summary.md", file, status)
+        if (status%ok()) then
+            call write_summary(all_rows, steps_rows, file)
+            call file%close(status)
+        end if
         if (.not. status%ok()) then
             write (err_unit, '(a)') "holosym bench: " // status%message
             exit_code = EXIT_FAILURE
             return
         end if
-        call write_summary(all_rows, steps_rows, out_unit)
-        open (newunit=unit, file=dir // "/summary.md", status="replace", action="write", &
-              iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            write (err_unit, '(a)') "holosym bench: cannot write " // dir // "/summary.md: " &
-                // trim(message)
-            exit_code = EXIT_FAILURE
-            return
-        end if
-        call write_summary(all_rows, steps_rows, unit)
-        close (unit)
         exit_code = EXIT_OK
     end subroutine bench_command
 

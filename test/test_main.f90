@@ -23,6 +23,7 @@ program holosym_tests
     use test_api, only: api_tests
     use test_reduced, only: reduced_tests
     use test_hardening, only: hardening_tests
+    use test_cli_hardening, only: cli_hardening_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed, skipped
@@ -55,6 +56,7 @@ program holosym_tests
     call run_suite("bench", bench_tests(), filter, passed, failed, skipped)
     call run_suite("reduced", reduced_tests(), filter, passed, failed, skipped)
     call run_suite("hardening", hardening_tests(), filter, passed, failed, skipped)
+    call run_suite("cli_hardening", cli_hardening_tests(), filter, passed, failed, skipped)
     if (passed + failed + skipped == 0) then
         write (error_unit, '(a)') "holosym_tests: no test matches '" // trim(filter) // &
             "' (a test is selected when its suite/name contains the filter, e.g. scheme/)"
