@@ -3,7 +3,8 @@
 !! Convention: 0 is success, a negative code is invalid input (or a user abort),
 !! a positive code is a numerical failure. Every public entry point takes an optional
 !! `type(holosym_status), intent(out) :: status`; when it is absent and the call fails,
-!! the program stops with the message (`error stop`).
+!! the program stops with the message (`error stop`). docs/status-codes.md lists every
+!! code with where it is returned, and every limit.
 module holosym_status
     ! The finiteness tests are IEEE classifications, which never raise an exception (an
     ! ordered comparison with a NaN raises 'invalid', which traps under -ffpe-trap=invalid).
