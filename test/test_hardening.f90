@@ -11,7 +11,7 @@ module test_hardening
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym, only: wp, holosym_status_t, constrained_hamiltonian, constrained_integrator, &
         spherical_pendulum, planar_pendulum, pendulum_chain, newton_settings_t, &
-        newton_report_t, newton_solve, nonlinear_system, project_to_manifold, &
+        newton_report_t, newton_solve, nonlinear_system, project_to_manifold, rattle_integrator, &
         projection_report_t, unknown_count, max_order_m, max_order_n, max_gauss_points, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, &
@@ -94,6 +94,7 @@ contains
             new_test("sizes_that_overflow", sizes_that_overflow), &
             new_test("every_setting_validated", settings_validated), &
             new_test("newton_solve_validates_its_settings", newton_settings_checked), &
+            new_test("rattle_validates_settings_and_sizes", rattle_checked), &
             new_test("nan_inputs_never_raise_invalid", nan_inputs_never_trap), &
             new_test("tiny_steps_below_resolution", tiny_steps), &
             new_test("constraints_dependent_within_a_step", dependent_within_step), &
@@ -591,6 +592,47 @@ contains
         end subroutine one
 
     end subroutine newton_settings_checked
+
+    !> The RATTLE baseline checks its sizes at init (n < 1, m >= n, a workspace beyond the
+    !! default integer: HOLOSYM_INVALID_DIMENSION) and its settings at each step (tolerance
+    !! NaN or outside (0, 1), max_iterations < 1: HOLOSYM_INVALID_ARGUMENT, state unchanged).
+    subroutine rattle_checked(error)
+        use holosym, only: HOLOSYM_INVALID_DIMENSION
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum) :: sys
+        type(sized_system) :: sized
+        type(rattle_integrator) :: rattle
+        type(holosym_status_t) :: status
+        real(wp) :: q0(3), p0(3), q(3), p(3)
+        sized%n = 2
+        sized%m = 2
+        call rattle%init(sized, 2, "triple-jump", status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_DIMENSION, "rattle m = n")
+        sized%n = huge(1) / 2
+        sized%m = 1
+        call rattle%init(sized, 2, "triple-jump", status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_DIMENSION, "rattle huge n")
+        sys = spherical_pendulum()
+        call sys%initial_state(q0, p0)
+        call rattle%init(sys, 4, "triple-jump", status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "rattle init")
+        q = q0
+        p = p0
+        rattle%tolerance = ieee_value(1.0_wp, ieee_quiet_nan)
+        call rattle%step(sys, q, p, 0.125_wp, status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "rattle NaN tol")
+        rattle%tolerance = 2
+        call rattle%step(sys, q, p, 0.125_wp, status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "rattle tol 2")
+        rattle%tolerance = 8 * eps
+        rattle%max_iterations = 0
+        call rattle%step(sys, q, p, 0.125_wp, status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "rattle 0 iter")
+        call check(error, same_bits(q, q0) .and. same_bits(p, p0), "rattle moved the state")
+        rattle%max_iterations = 50
+        call rattle%step(sys, q, p, 0.125_wp, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "rattle valid step")
+    end subroutine rattle_checked
 
     ! ------------------------------------------------------------------ 12: no traps
 
