@@ -741,9 +741,10 @@ contains
         type(step_candidate_t) :: first, second
         type(holosym_status_t) :: local
         real(wp) :: q_half(size(q)), p_half(size(p)), scale, distance(2)
-        logical :: half_ok, have_second, second_suspicious
+        logical :: half_ok, have_second, second_suspicious, had_last
         integer :: chosen
 
+        had_last = self%have_last
         call take_candidate(self, first)
         ! Reference: two half steps, each from the constant guess.
         call attempt_step(self, sys, q, p, h / 2, .false., local)
@@ -814,7 +815,8 @@ contains
                 "changes the energy by " // real_str(second%pending%energy_change) // &
                 merge_text(half_ok, " and lies " // real_str(distance(2)) // " from them", &
                 ""), "") // "; reduce h")
-            self%have_last = .false.
+            ! The last accepted step stays the last step (its data were not touched).
+            self%have_last = had_last
         end select
     end subroutine verify_root
 
