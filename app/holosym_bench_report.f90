@@ -4,6 +4,7 @@
 !! targets. Missing files give a line saying which command makes them.
 module holosym_bench_report
     use, intrinsic :: iso_fortran_env, only: real64
+    use holosym_output, only: output_t
     implicit none
     private
 
@@ -171,7 +172,7 @@ contains
     !> The scaling section: table, exponents, memory per link, verdicts.
     subroutine scaling_section(dir, unit)
         character(len=*), intent(in) :: dir !! directory of the CSV files
-        integer, intent(in) :: unit         !! Markdown output
+        type(output_t), intent(inout) :: unit !! the page
         type(csv_table_t) :: quad, double, both
         logical :: have_quad, have_double
         integer :: r, links, k
@@ -180,14 +181,14 @@ contains
         character(len=:), allocatable :: line
         character(len=7), parameter :: precisions(2) = ["real128", "real64 "]
         character(len=7), parameter :: paths(2) = ["reduced", "general"]
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## Scaling: a chain of K planar pendula"
-        write (unit, '(a)') ""
+        call unit%line("")
+        call unit%line("## Scaling: a chain of K planar pendula")
+        call unit%line("")
         call read_csv(dir // "/scaling.csv", quad, have_quad)
         call read_csv(dir // "/scaling64.csv", double, have_double)
         if (.not. (have_quad .or. have_double)) then
-            write (unit, '(a)') "No scaling.csv in " // dir // ": `holosym bench --scaling` " // &
-                "makes it."
+            call unit%line("No scaling.csv in " // dir // ": `holosym bench --scaling` " // &
+                "makes it.")
             return
         end if
         if (.not. have_quad) quad = double
@@ -196,15 +197,15 @@ contains
         both%cells = reshape([character(len=field_length) :: quad%cells, double%cells], [ &
             size(quad%names), &
             size(quad%cells, 2) + size(double%cells, 2)])
-        write (unit, '(a)') "n = 2K, m = K, (M, N, G) = (4, 3, 5), h = 0.01 (command: " // &
+        call unit%line("n = 2K, m = K, (M, N, G) = (4, 3, 5), h = 0.01 (command: " // &
             "`holosym bench --scaling`, in the real128 and real64 builds). Seconds per step; " // &
             "the reduced step is the default, the general path is `structured = .false.` " // &
             "(dense Newton matrices), run while affordable. Peak memory: VmHWM of the " // &
-            "process that ran the point."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| K | reduced real128 s | general real128 s | reduced real64 s " // &
-            "| general real64 s | peak MB (reduced real128) |"
-        write (unit, '(a)') "|---|---|---|---|---|---|"
+            "process that ran the point.")
+        call unit%line("")
+        call unit%line("| K | reduced real128 s | general real128 s | reduced real64 s " // &
+            "| general real64 s | peak MB (reduced real128) |")
+        call unit%line("|---|---|---|---|---|---|")
         allocate (all_links(0))
         do r = 1, size(both%cells, 2)
             links = nint(number(both, "links", r))
@@ -224,26 +225,26 @@ contains
                 end if
             end do
             line = line // " " // memory_mb(both, links) // " |"
-            write (unit, '(a)') line
+            call unit%line(line)
         end do
-        write (unit, '(a)') ""
+        call unit%line("")
         do k = 1, 2
             do r = 1, 2
                 exponent = fitted_exponent(both, trim(precisions(k)), trim(paths(r)))
-                if (exponent > 0) write (unit, '(a)') "- Fitted exponent of the cost per " // &
+                if (exponent > 0) call unit%line("- Fitted exponent of the cost per " // &
                     "step against K (K = 8 .. 256), " // trim(paths(r)) // " path, " // &
                     trim(precisions(k)) // ": **" // fixed(exponent) // "** (target: at " // &
-                    "most 1.2 for the structured path)."
+                    "most 1.2 for the structured path).")
             end do
         end do
         at100 = [per_step(both, "real128", "reduced", 100), &
                  per_step(both, "real64", "reduced", 100)]
-        if (at100(1) > 0) write (unit, '(a)') "- K = 100, real128: " // &
+        if (at100(1) > 0) call unit%line("- K = 100, real128: " // &
             fixed(1000 * at100(1)) // " ms per step (target: at most 10 ms): " // &
-            verdict(at100(1) <= 0.010_real64)
-        if (at100(2) > 0) write (unit, '(a)') "- K = 100, real64: " // &
+            verdict(at100(1) <= 0.010_real64))
+        if (at100(2) > 0) call unit%line("- K = 100, real64: " // &
             fixed(1000 * at100(2)) // " ms per step (target: at most 0.5 ms): " // &
-            verdict(at100(2) <= 0.0005_real64)
+            verdict(at100(2) <= 0.0005_real64))
         rss_first = -1
         rss_last = -1
         do r = 1, size(both%cells, 2)
@@ -253,10 +254,10 @@ contains
             if (nint(number(both, "links", r)) == maxval(all_links)) rss_last = &
                 number(both, "max_rss_kb", r)
         end do
-        if (rss_first > 0 .and. rss_last > 0 .and. maxval(all_links) > 1) write (unit, '(a)') &
+        if (rss_first > 0 .and. rss_last > 0 .and. maxval(all_links) > 1) call unit%line( &
             "- Peak memory grows by " // fixed((rss_last - rss_first) / &
             (maxval(all_links) - 1)) // " kB per link from K = 1 to " // &
-            int_text(maxval(all_links)) // " (real128, reduced step)."
+            int_text(maxval(all_links)) // " (real128, reduced step).")
     contains
         function memory_mb(table, links) result(text)
             type(csv_table_t), intent(in) :: table
@@ -275,32 +276,32 @@ contains
     !> The long-run section: per case and target, holosym's and heyoka's cheapest run.
     subroutine long_section(dir, unit)
         character(len=*), intent(in) :: dir !! directory of long.csv
-        integer, intent(in) :: unit         !! Markdown output
+        type(output_t), intent(inout) :: unit !! the page
         type(csv_table_t) :: table
         logical :: found
         real(real64), parameter :: targets(2) = [1.0e-20_real64, 1.0e-24_real64]
         character(len=:), allocatable :: line
         character(len=field_length), allocatable :: cases(:)
         integer :: r, c, t, mine, theirs
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## Long runs"
-        write (unit, '(a)') ""
+        call unit%line("")
+        call unit%line("## Long runs")
+        call unit%line("")
         call read_csv(dir // "/long.csv", table, found)
         if (.not. found) then
-            write (unit, '(a)') "No long.csv in " // dir // ": `make bench-long` " // &
-                "(`holosym bench --long --heyoka PYTHON`) makes it."
+            call unit%line("No long.csv in " // dir // ": `make bench-long` " // &
+                "(`holosym bench --long --heyoka PYTHON`) makes it.")
             return
         end if
-        write (unit, '(a)') "real128; the cheapest run of each method with error at T " // &
+        call unit%line("real128; the cheapest run of each method with error at T " // &
             "at most the target (reference: holosym (8,7,9) at h = 1/32, " // &
             "long_reference.csv). max |phi| and the energy error are whole-run " // &
             "(holosym: after every step and at every node; heyoka: on 10001 output times). " // &
             "'x' = heyoka's CPU time / holosym's (target: at least 2, with holosym's " // &
-            "max |phi| at most 1e-30)."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| system | T | target | holosym run | s | error | max phi | " // &
-            "energy error | heyoka run | s | error | max phi | energy error | x |"
-        write (unit, '(a)') "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+            "max |phi| at most 1e-30).")
+        call unit%line("")
+        call unit%line("| system | T | target | holosym run | s | error | max phi | " // &
+            "energy error | heyoka run | s | error | max phi | energy error | x |")
+        call unit%line("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         allocate (cases(0))
         do r = 1, size(table%cells, 2)
             line = field(table, "system", r) // " " // field(table, "span", r)
@@ -318,7 +319,7 @@ contains
                 else
                     line = line // " — |"
                 end if
-                write (unit, '(a)') line
+                call unit%line(line)
             end do
         end do
     contains

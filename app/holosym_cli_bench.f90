@@ -17,9 +17,10 @@ module holosym_cli_bench
         sweep_holosym, sweep_rattle, variant_name, bench_span, bench_targets, variant_count, &
         rattle_families, rattle_orders, target_in_precision
     use holosym_cli_common, only: parsed_command_proceeds, &
-        cli_argument_t, split_option, option_value, parse_integer, &
+        cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
     use holosym_systems, only: make_system, system_choices
+    use holosym_output, only: output_t, open_output, make_directories
     use holosym_bench_scaling, only: scaling_point, scaling_links, scaling_header, &
         general_links_limit
     use holosym_bench_long, only: run_long
@@ -38,6 +39,8 @@ module holosym_cli_bench
     !> Per-step comparison: spherical pendulum, h = 1/8, T = 10, at (2,1,3) and (7,6,8).
     real(wp), parameter :: per_step_h = 0.125_wp
     integer, parameter :: per_step_configs(3, 2) = reshape([2, 1, 3, 7, 6, 8], [3, 2])
+    !> Largest --budget, in CPU seconds per run.
+    real(wp), parameter :: max_budget = 3600
     !> Largest step of the sweeps.
     real(wp), parameter :: sweep_h0 = 1
     !> Method of a per-step row: this prefix and the option set 0 .. variant_count.
@@ -177,18 +180,14 @@ contains
                     options%systems = value
                     call check_systems(value, status)
                 case ("--Mmax")
-                    call parse_integer(name, value, options%max_m, status)
-                    if (status%ok() .and. (options%max_m < 1 .or. options%max_m > 12)) &
-                        call fail(status, "option --Mmax must be in 1..12; got '" // value // "'")
+                    call parse_integer_in(name, value, 1, 12, options%max_m, status)
                 case ("--order")
-                    call parse_integer(name, value, options%max_rattle_order, status)
-                    if (status%ok() .and. (options%max_rattle_order < 2 .or. &
-                        options%max_rattle_order > 10)) call fail(status, &
-                        "option --order must be in 2..10; got '" // value // "'")
+                    call parse_integer_in(name, value, 2, 10, options%max_rattle_order, status)
                 case ("--budget")
                     call parse_real(name, value, budget, status)
-                    if (status%ok() .and. .not. budget > 0) call fail(status, &
-                        "option --budget must be > 0; got '" // value // "'")
+                    if (status%ok() .and. .not. (budget > 0 .and. budget <= max_budget)) &
+                        call fail(status, "option --budget must be in (0, 3600]; got '" // &
+                        value // "'")
                     options%budget = real(budget, real64)
                 end select
                 if (.not. status%ok()) return
@@ -693,10 +692,10 @@ contains
     !> The Markdown summary: per precision, target and system the cheapest configuration
     !! of holosym, of RATTLE composed inside holosym and of heyoka (index-1 form) reaching
     !! the target, with the ratios of their CPU times and heyoka's whole-run residuals.
-    subroutine write_summary(rows, steps_rows, unit, nested)
+    subroutine write_summary(rows, steps_rows, out, nested)
         type(bench_row_t), intent(in) :: rows(:)       !! sweep rows (any precision, any method)
         type(bench_row_t), intent(in) :: steps_rows(:) !! per-step comparison rows
-        integer, intent(in) :: unit                    !! output unit
+        type(output_t), intent(inout) :: out           !! where the Markdown goes
         logical, intent(in), optional :: nested        !! headings one level down
         integer :: t, s, best, rival, taylor, precision, c, variant, plain
         character(len=:), allocatable :: line, prec, level
@@ -706,9 +705,9 @@ contains
         if (present(nested)) then
             if (nested) level = "##"
         end if
-        write (unit, '(a)') level // " holosym work-precision benchmark"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Error = max(|q - q_ref|, |p - p_ref|) at T against one reference " // &
+        call out%line(level // " holosym work-precision benchmark")
+        call out%line("")
+        call out%line("Error = max(|q - q_ref|, |p - p_ref|) at T against one reference " // &
             "(holosym M = 8 at h = 1/32; reference.csv), the same for every method. CPU " // &
             "seconds on one core, median of 3 for runs under 0.2 s; the cheapest run of " // &
             "each method reaching the target. holosym: default options (real128: also " // &
@@ -716,17 +715,17 @@ contains
             "inside holosym (GNI_COMP's compositions, orders 2-10). heyoka: Taylor method " // &
             "on the index-1 form (tools/heyoka_bench.py), compile time apart; its max " // &
             "residual (max |phi|, |Phi H_p| over the run) and energy error are whole-run. " // &
-            "'x' = the method's time / holosym's (above 1: holosym is faster)."
+            "'x' = the method's time / holosym's (above 1: holosym is faster).")
         do precision = 2, 1, -1
             prec = merge("real128", "real64 ", precision == 2)
             if (.not. any(rows%precision == prec)) cycle
-            write (unit, '(a)') ""
-            write (unit, '(a)') level // "# " // trim(prec)
-            write (unit, '(a)') ""
-            write (unit, '(a)') "| target | system | holosym config | holosym s | " // &
+            call out%line("")
+            call out%line(level // "# " // trim(prec))
+            call out%line("")
+            call out%line("| target | system | holosym config | holosym s | " // &
                 "RATTLE config | RATTLE s | x RATTLE | heyoka config | heyoka s | x heyoka | " &
-                // "heyoka compile s | heyoka max residual | heyoka energy error |"
-            write (unit, '(a)') "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+                // "heyoka compile s | heyoka max residual | heyoka energy error |")
+            call out%line("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
             do t = 1, size(bench_targets)
                 if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
                 do s = 1, size(bench_systems)
@@ -761,18 +760,18 @@ contains
                     else
                         line = line // "— | — | — | — | — | — |"
                     end if
-                    write (unit, '(a)') line
+                    call out%line(line)
                 end do
             end do
         end do
         if (size(steps_rows) == 0) return
-        write (unit, '(a)') ""
-        write (unit, '(a)') level // "# Per-step cost of the speed options " // &
-            "(spherical pendulum, h = 1/8, T = 10)"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| (M,N,G) | option set | s / step | x plain | Newton it. / step" // &
-            " | LU / step | gradients / step | max diff. from plain at T |"
-        write (unit, '(a)') "|---|---|---|---|---|---|---|---|"
+        call out%line("")
+        call out%line(level // "# Per-step cost of the speed options " // &
+            "(spherical pendulum, h = 1/8, T = 10)")
+        call out%line("")
+        call out%line("| (M,N,G) | option set | s / step | x plain | Newton it. / step" // &
+            " | LU / step | gradients / step | max diff. from plain at T |")
+        call out%line("|---|---|---|---|---|---|---|---|")
         plain = 0
         do c = 1, size(steps_rows)
             variant = step_variant(steps_rows(c)%method)
@@ -782,7 +781,7 @@ contains
             per_step = steps_rows(c)%seconds / max(steps_rows(c)%steps, 1)
             plain_step = steps_rows(plain)%seconds / max(steps_rows(plain)%steps, 1)
             difference = steps_rows(c)%difference
-            write (unit, '(a)') "| (" // int_str(steps_rows(c)%order_m) // "," // &
+            call out%line("| (" // int_str(steps_rows(c)%order_m) // "," // &
                 int_str(steps_rows(c)%order_n) // "," // int_str(steps_rows(c)%gauss_points) &
                 // ") " // trim(steps_rows(c)%precision) // " | " // variant_name(variant) // &
                 " | " // seconds_text(per_step) // &
@@ -791,7 +790,7 @@ contains
                            steps_rows(c)%steps) // " | " // &
                 ratio_text(real(steps_rows(c)%factorizations, real64) / steps_rows(c)%steps) &
                 // " | " // ratio_text(real(steps_rows(c)%gradients, real64) / &
-                steps_rows(c)%steps) // " | " // trim(real_str(difference)) // " |"
+                steps_rows(c)%steps) // " | " // trim(real_str(difference)) // " |")
         end do
     contains
         !> rows(other)%seconds / rows(best)%seconds, or "—" without a holosym row.
@@ -807,30 +806,29 @@ contains
     end subroutine write_summary
 
     !> `holosym bench [options]`. Exit 0 success, 1 failure, 2 usage.
-    subroutine bench_command(args, out_unit, err_unit, exit_code)
+    subroutine bench_command(args, out, err_unit, exit_code)
         type(cli_argument_t), intent(in) :: args(:) !! the command's arguments
-        integer, intent(in) :: out_unit   !! Markdown summary
+        type(output_t), intent(inout) :: out !! Markdown summary
         integer, intent(in) :: err_unit   !! progress and errors
         integer, intent(out) :: exit_code !! process exit code
         type(bench_options_t) :: options
         type(holosym_status_t) :: status
         type(bench_row_t), allocatable :: rows(:), steps_rows(:), all_rows(:)
         character(len=:), allocatable :: dir, csv_name
-        character(len=256) :: message
-        integer :: unit, ios
+        type(output_t) :: file
 
         call parse_bench_options(args, options, status)
         if (.not. parsed_command_proceeds("bench", status, options%help, bench_help(), &
-                                          out_unit, err_unit, exit_code)) return
+                                          out, err_unit, exit_code)) return
         if (options%scaling_point > 0) then
             call scaling_point(options%scaling_point, options%general, options%quick, &
-                               out_unit, status)
+                               out, status)
             call finish(status)
             return
         end if
         if (options%scaling .or. options%long) then
-            call execute_command_line("mkdir -p '" // options%out_dir // "'")
-            if (options%scaling) call run_scaling(options, err_unit, status)
+            call make_directories(options%out_dir, status)
+            if (options%scaling .and. status%ok()) call run_scaling(options, err_unit, status)
             if (options%long .and. status%ok()) call run_long(options%out_dir, &
                 options%heyoka, options%quick, err_unit, status)
             if (status%ok()) call write_reports(options%out_dir, status)
@@ -841,8 +839,8 @@ contains
             dir = options%summarize
         else
             dir = options%out_dir
-            call execute_command_line("mkdir -p '" // dir // "'")
-            call run_bench(options, err_unit, rows, steps_rows, status)
+            call make_directories(dir, status)
+            if (status%ok()) call run_bench(options, err_unit, rows, steps_rows, status)
             csv_name = merge("bench64.csv", "bench.csv  ", wp_is_double)
             if (status%ok()) call write_bench_csv(dir // "/" // trim(csv_name), rows, status)
             if (status%ok() .and. size(steps_rows) > 0) call write_bench_csv(dir // &
@@ -864,18 +862,13 @@ contains
             exit_code = EXIT_FAILURE
             return
         end if
-        call write_summary(all_rows, steps_rows, out_unit)
-        open (newunit=unit, file=dir // "/summary.md", status="replace", action="write", &
-              iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            write (err_unit, '(a)') "holosym bench: cannot write " // dir // "/summary.md: " &
-                // trim(message)
-            exit_code = EXIT_FAILURE
-            return
+        call write_summary(all_rows, steps_rows, out)
+        call open_output(dir // "/summary.md", file, status)
+        if (status%ok()) then
+            call write_summary(all_rows, steps_rows, file)
+            call file%close(status)
         end if
-        call write_summary(all_rows, steps_rows, unit)
-        close (unit)
-        call write_reports(dir, status)
+        if (status%ok()) call write_reports(dir, status)
         call finish(status)
     contains
         !> Exit code and message of the command.
@@ -895,8 +888,8 @@ contains
         character(len=*), intent(in) :: dir
         type(holosym_status_t), intent(inout) :: status
         type(bench_row_t), allocatable :: rows(:), steps_rows(:)
-        character(len=256) :: message
-        integer :: unit, ios, k
+        type(output_t) :: file
+        integer :: k
         character(len=12), parameter :: files(4) = [character(len=12) :: "bench.csv", &
             "bench64.csv", "heyoka.csv", "heyoka64.csv"]
         allocate (rows(0), steps_rows(0))
@@ -907,21 +900,17 @@ contains
         if (status%ok()) call read_bench_csv(dir // "/steps.csv", steps_rows, status, .true.)
         if (status%ok()) call read_bench_csv(dir // "/steps64.csv", steps_rows, status, .true.)
         if (.not. status%ok()) return
-        open (newunit=unit, file=dir // "/performance.md", status="replace", action="write", &
-              iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // dir // "/performance.md: " // trim(message))
-            return
-        end if
-        call write_performance(dir, rows, steps_rows, unit)
-        close (unit)
+        call open_output(dir // "/performance.md", file, status)
+        if (.not. status%ok()) return
+        call write_performance(dir, rows, steps_rows, file)
+        call file%close(status)
     end subroutine write_reports
 
     !> Verdicts on the speed targets at fixed T: for each precision, target and system,
     !! heyoka's time / holosym's against the required ratio.
     subroutine target_verdicts(rows, unit)
         type(bench_row_t), intent(in) :: rows(:)
-        integer, intent(in) :: unit
+        type(output_t), intent(inout) :: unit !! the page
         integer :: precision, t, s, best, taylor, met, total
         real(real64) :: required, ratio, worst
         character(len=:), allocatable :: prec, smallest
@@ -947,15 +936,15 @@ contains
                 end do
             end do
             if (total == 0) then
-                write (unit, '(a)') "- " // trim(prec) // ": no heyoka rows (run with --heyoka)."
+                call unit%line("- " // trim(prec) // ": no heyoka rows (run with --heyoka).")
             else
                 smallest = "—"
                 if (worst < huge(1.0_real64)) smallest = ratio_text(worst)
-                write (unit, '(a)') "- " // trim(prec) // " (holosym at least " // &
+                call unit%line("- " // trim(prec) // " (holosym at least " // &
                     ratio_text(required) // "x faster than heyoka wherever heyoka reaches " // &
                     "the target): met at " // int_str(met) // " of " // int_str(total) // &
                     " (target, system) pairs; smallest heyoka / holosym ratio " // smallest // &
-                    " (pairs holosym does not reach count as missed)."
+                    " (pairs holosym does not reach count as missed).")
             end if
         end do
     end subroutine target_verdicts
@@ -965,49 +954,49 @@ contains
     subroutine write_performance(dir, rows, steps_rows, unit)
         character(len=*), intent(in) :: dir
         type(bench_row_t), intent(in) :: rows(:), steps_rows(:)
-        integer, intent(in) :: unit
+        type(output_t), intent(inout) :: unit !! the page
         character(len=512) :: line
         integer :: info, ios
-        write (unit, '(a)') "# Performance"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Generated by `make bench` (`holosym bench --summarize " // dir // &
+        call unit%line("# Performance")
+        call unit%line("")
+        call unit%line("Generated by `make bench` (`holosym bench --summarize " // dir // &
             "` from the CSV files there); edits are overwritten. Every number below was " // &
             "measured in that run: holosym, RATTLE composed inside holosym and heyoka side " // &
-            "by side, against one reference."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## How it was measured"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "- `make bench`: `holosym bench --heyoka PYTHON` in the real128 " // &
+            "by side, against one reference.")
+        call unit%line("")
+        call unit%line("## How it was measured")
+        call unit%line("")
+        call unit%line("- `make bench`: `holosym bench --heyoka PYTHON` in the real128 " // &
             "build (writes the reference), the same in the real64 build against that " // &
             "reference, `holosym bench --scaling` in both builds, then plots and this page. " // &
-            "`make bench-long`: `holosym bench --long --heyoka PYTHON` (about an hour of CPU)."
-        write (unit, '(a)') "- Competitor: heyoka (the `heyoka` package on PyPI, Taylor " // &
+            "`make bench-long`: `holosym bench --long --heyoka PYTHON` (about an hour of CPU).")
+        call unit%line("- Competitor: heyoka (the `heyoka` package on PyPI, Taylor " // &
             "method with LLVM compilation), installed by `tools/bench_venv.sh` into the " // &
             "benchmark's virtual environment, run by `tools/heyoka_bench.py` on the index-1 " // &
             "form of each system (Cartesian coordinates, the multipliers from the twice " // &
             "differentiated constraint), same H, parameters and initial states; tolerance " // &
-            "swept by decades, compile time excluded and reported apart."
+            "swept by decades, compile time excluded and reported apart.")
         open (newunit=info, file=dir // "/environment.txt", status="old", action="read", &
               iostat=ios)
         if (ios == 0) then
             do
                 read (info, '(a)', iostat=ios) line
                 if (ios /= 0) exit
-                write (unit, '(a)') "- " // trim(line)
+                call unit%line("- " // trim(line))
             end do
             close (info)
         end if
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## Targets at fixed T, measured"
-        write (unit, '(a)') ""
+        call unit%line("")
+        call unit%line("## Targets at fixed T, measured")
+        call unit%line("")
         call target_verdicts(rows, unit)
-        write (unit, '(a)') ""
-        write (unit, '(a)') "![work-precision](figures/work_precision.png)"
-        write (unit, '(a)') ""
+        call unit%line("")
+        call unit%line("![work-precision](figures/work_precision.png)")
+        call unit%line("")
         call write_summary(rows, steps_rows, unit, nested=.true.)
         call scaling_section(dir, unit)
-        write (unit, '(a)') ""
-        write (unit, '(a)') "![cost against K](figures/scaling.png)"
+        call unit%line("")
+        call unit%line("![cost against K](figures/scaling.png)")
         call long_section(dir, unit)
     end subroutine write_performance
 

@@ -21,6 +21,7 @@ module holosym_cli_ensemble
     use holosym_cli_common, only: parsed_command_proceeds, cli_argument_t, split_option, &
         option_value, parse_integer, parse_real, fail, csv_real, join_lines, EXIT_OK, &
         EXIT_FAILURE
+    use holosym_output, only: output_t
     implicit none
     private
 
@@ -262,9 +263,9 @@ contains
 
     !> `holosym ensemble ARGS`: parse, build the states, run, report. `farm` (default: the
     !! OpenMP threads of --threads) computes the trajectories.
-    subroutine ensemble_command(args, out_unit, err_unit, exit_code, farm)
+    subroutine ensemble_command(args, out, err_unit, exit_code, farm)
         type(cli_argument_t), intent(in) :: args(:) !! arguments after "ensemble"
-        integer, intent(in) :: out_unit   !! unit for the help
+        type(output_t), intent(inout) :: out !! the help
         integer, intent(in) :: err_unit   !! unit for progress and errors
         integer, intent(out) :: exit_code !! process exit code
         class(task_farm), intent(inout), optional :: farm !! who computes (MPI: every rank)
@@ -274,7 +275,7 @@ contains
 
         call parse_ensemble_options(args, config, status)
         if (.not. parsed_command_proceeds("ensemble", status, config%help, ensemble_help(), &
-                                          out_unit, err_unit, exit_code)) return
+                                          out, err_unit, exit_code)) return
         threads%threads = config%threads
         if (present(farm)) then
             call run_ensemble_command(config, farm, err_unit, exit_code)

@@ -36,6 +36,7 @@ module holosym_cli_figures
     use holosym_cli_common, only: parsed_command_proceeds, cli_argument_t, split_option, &
         option_value, parse_integer, fail, csv_real, csv_integer, join_lines, EXIT_OK, &
         EXIT_FAILURE
+    use holosym_output, only: output_t
     implicit none
     private
 
@@ -546,16 +547,16 @@ contains
     end subroutine record_window
 
     !> `holosym figures [options]`: parse, run. Exit 0 success, 1 failure, 2 usage.
-    subroutine figures_command(args, out_unit, err_unit, exit_code)
+    subroutine figures_command(args, out, err_unit, exit_code)
         type(cli_argument_t), intent(in) :: args(:) !! the command's arguments
-        integer, intent(in) :: out_unit   !! help
+        type(output_t), intent(inout) :: out !! the help
         integer, intent(in) :: err_unit   !! progress and errors
         integer, intent(out) :: exit_code !! process exit code
         type(figures_options_t) :: options
         type(holosym_status_t) :: status
         call parse_figures_options(args, options, status)
         if (.not. parsed_command_proceeds("figures", status, options%help, figures_help(), &
-                                          out_unit, err_unit, exit_code)) return
+                                          out, err_unit, exit_code)) return
         call run_figures(options, err_unit, status)
         if (.not. status%ok()) then
             write (err_unit, '(a)') "holosym figures: error: " // &

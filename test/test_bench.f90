@@ -5,7 +5,6 @@
 !! measured, `--summarize` reproducing the summary, an empty directory an error).
 module test_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
-    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp, wp_is_double
     use holosym_status, only: int_str, real_str, HOLOSYM_SUCCESS, HOLOSYM_NEWTON_DIVERGED
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
@@ -377,6 +376,38 @@ contains
             "pendulum,variant-12,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
             "1.25E-4,400,500,600,70,80,0,0,0,0"], "unknown option set", &
             [character(len=24) :: "line 2", "variant-12"])
+        ! Values out of their ranges: NaN, Inf, beyond the exponent range, negative seconds
+        ! or step counts, a zero step, an unknown status code.
+        call expect_failure([character(len=1000) :: csv_header, good_row, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,NaN,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0"], "NaN error", &
+            [character(len=24) :: "line 3", "field error", "NaN"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,Inf,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0"], "Inf h", [character(len=24) :: "line 2", "field h"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E5000,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0"], "error 1e5000", &
+            [character(len=24) :: "line 2", "field error", "1.0E5000"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,-1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0"], "negative seconds", &
+            [character(len=24) :: "line 2", "field seconds"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,-80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0"], "negative steps", &
+            [character(len=24) :: "line 2", "field steps"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,0,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0"], "zero h", [character(len=24) :: "line 2", "field h"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,-400,500,600,70,80,0,0"], "negative iterations", &
+            [character(len=24) :: "line 2", "newton_iterations"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,99,0"], "unknown status", &
+            [character(len=24) :: "line 2", "field status", "99"])
 
         ! The well-formed file; bench64.csv, steps.csv and steps64.csv are missing and optional.
         call write_lines(path, [character(len=1000) :: csv_header, good_row])
@@ -424,11 +455,9 @@ contains
         type(row_t) :: taylor
         type(command_result_t) :: result
         character(len=:), allocatable :: line, dir
-        real(wp) :: nan
         real(real64), parameter :: best_seconds = 4.0e-3_real64, rattle_seconds = 4.0e-2_real64
 
         dir = fresh_dir("bench_cheapest")
-        nan = ieee_value(nan, ieee_quiet_nan)
         rows = [ &
             make_row("pendulum", "holosym", "real128", 5, 0.5_wp, 5.0e-11_wp, 1.0e-2_real64, 0), &
             make_row("pendulum", "holosym", "real128", 6, 1.0_wp, 1.0e-12_wp, best_seconds, 0), &
@@ -436,7 +465,7 @@ contains
                      HOLOSYM_NEWTON_DIVERGED), &
             make_row("pendulum", "holosym-plain", "real128", 7, 1.0_wp, 1.0e-12_wp, &
                      5.0e-4_real64, 0), &
-            make_row("pendulum", "holosym", "real128", 8, 1.0_wp, nan, 1.0e-4_real64, 0), &
+            make_row("pendulum", "holosym", "real128", 8, 1.0_wp, 1.0e-3_wp, 1.0e-4_real64, 0), &
             make_row("pendulum", "holosym", "real128", 3, 1.0_wp, 2.0e-10_wp, 2.0e-4_real64, 0), &
             make_row("pendulum", "rattle-suzuki", "real128", 0, 0.25_wp, 1.0e-11_wp, &
                      rattle_seconds, 0), &

@@ -1,0 +1,240 @@
+!> Output of the `holosym` tool whose failures are seen: a full disk, a full device
+!! (/dev/full), a closed standard output or a file-size limit make the command fail.
+!!
+!! gfortran's units do not report these: a `write`, `flush` or `close` to a full device
+!! returns iostat 0 (gfortran 12). So results go through `output_t`, which buffers lines
+!! and writes them with write(2), and on `close` forces a regular file to its device
+!! (fsync(2)) and checks close(2); the first failure is kept with its system error text.
+!! Directories are created with mkdir(2), never through a shell. The POSIX calls are in
+!! holosym_posix.c.
+module holosym_output
+    use, intrinsic :: iso_c_binding, only: c_int, c_long, c_char, c_null_char
+    use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+    implicit none
+    private
+
+    public :: output_t, open_output, standard_output, make_directories, error_text
+    public :: keep_standard_streams
+
+    !> Bytes collected before a write(2).
+    integer, parameter :: buffer_size = 65536
+
+    !> A text output: standard output or a file opened by `open_output`.
+    type :: output_t
+        integer(c_int) :: fd = -1        !! descriptor (-1: not open)
+        character(len=:), allocatable :: name !! "standard output" or the path, for messages
+        character(len=buffer_size) :: buffer  !! bytes not written yet
+        integer :: used = 0               !! bytes in `buffer`
+        integer :: error = 0              !! errno of the first failure, 0 if none
+        logical :: owned = .false.        !! opened here: `close` closes the descriptor
+    contains
+        !> Append a line (the text and a newline).
+        procedure :: line => output_line
+        !> Write the buffered bytes.
+        procedure :: flush => output_flush
+        !> Flush, force a regular file to its device and close it; the outcome.
+        procedure :: close => output_close
+        !> True when a write has failed.
+        procedure :: failed => output_failed
+    end type output_t
+
+    interface
+        integer(c_int) function c_open_write(path, fd) bind(C, name="holosym_open_write")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int), intent(out) :: fd
+        end function c_open_write
+
+        integer(c_int) function c_write_all(fd, buffer, n) bind(C, name="holosym_write_all")
+            import :: c_int, c_char, c_long
+            integer(c_int), value :: fd
+            character(kind=c_char), intent(in) :: buffer(*)
+            integer(c_long), value :: n
+        end function c_write_all
+
+        integer(c_int) function c_sync(fd) bind(C, name="holosym_sync")
+            import :: c_int
+            integer(c_int), value :: fd
+        end function c_sync
+
+        integer(c_int) function c_close(fd) bind(C, name="holosym_close")
+            import :: c_int
+            integer(c_int), value :: fd
+        end function c_close
+
+        integer(c_int) function c_make_directories(path) &
+            bind(C, name="holosym_make_directories")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_make_directories
+
+        subroutine c_error_text(error, buffer, size) bind(C, name="holosym_error_text")
+            import :: c_int, c_char
+            integer(c_int), value :: error
+            character(kind=c_char), intent(out) :: buffer(*)
+            integer(c_int), value :: size
+        end subroutine c_error_text
+
+        subroutine c_keep_standard_streams() bind(C, name="holosym_keep_standard_streams")
+        end subroutine c_keep_standard_streams
+    end interface
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
+contains
+
+    !> Standard output (descriptor 1), not closed by `close`.
+    function standard_output() result(out)
+        type(output_t) :: out
+        out%fd = 1
+        out%name = "standard output"
+        out%owned = .false.
+    end function standard_output
+
+    !> Create or truncate `path` for writing. Failure: HOLOSYM_INVALID_ARGUMENT with the
+    !! path and the system's reason.
+    subroutine open_output(path, out, status)
+        character(len=*), intent(in) :: path          !! the file
+        type(output_t), intent(out) :: out            !! the output
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer(c_int) :: error
+        out%name = path
+        error = c_open_write(c_text(path), out%fd)
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        if (error /= 0) then
+            out%fd = -1
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "cannot open '" // path // "': " // error_text(int(error))
+            return
+        end if
+        out%owned = .true.
+    end subroutine open_output
+
+    !> Append `text` and a newline; writes when the buffer is full. After a failure nothing
+    !! more is written.
+    subroutine output_line(self, text)
+        class(output_t), intent(inout) :: self
+        character(len=*), intent(in) :: text !! the line, without its end
+        call put(self, text)
+        call put(self, new_line("a"))
+    end subroutine output_line
+
+    !> Append bytes to the buffer, writing it out whenever it fills.
+    subroutine put(self, text)
+        class(output_t), intent(inout) :: self
+        character(len=*), intent(in) :: text
+        integer :: first, chunk
+        first = 1
+        do while (first <= len(text) .and. self%error == 0)
+            chunk = min(len(text) - first + 1, buffer_size - self%used)
+            self%buffer(self%used + 1:self%used + chunk) = text(first:first + chunk - 1)
+            self%used = self%used + chunk
+            first = first + chunk
+            if (self%used == buffer_size) call output_flush(self)
+        end do
+    end subroutine put
+
+    !> Write the buffered bytes (nothing after a failure, or when not open).
+    subroutine output_flush(self)
+        class(output_t), intent(inout) :: self
+        integer(c_int) :: error
+        if (self%used == 0 .or. self%error /= 0) return
+        if (self%fd < 0) then
+            self%error = 9  ! EBADF
+            return
+        end if
+        error = c_write_all(self%fd, self%buffer, int(self%used, c_long))
+        self%used = 0
+        if (error /= 0) self%error = int(error)
+    end subroutine output_flush
+
+    !> Flush, force a regular file's data to its device and close a file opened here.
+    !! Failure (the first write, sync or close error): HOLOSYM_INVALID_ARGUMENT with the
+    !! output's name and the system's reason.
+    subroutine output_close(self, status)
+        class(output_t), intent(inout) :: self
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer(c_int) :: error
+        call output_flush(self)
+        if (self%fd >= 0 .and. self%error == 0) then
+            error = c_sync(self%fd)
+            if (error /= 0) self%error = int(error)
+        end if
+        if (self%owned .and. self%fd >= 0) then
+            error = c_close(self%fd)
+            if (error /= 0 .and. self%error == 0) self%error = int(error)
+            self%fd = -1
+            self%owned = .false.
+        end if
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        if (self%error /= 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "cannot write " // self%name // ": " // error_text(self%error)
+        end if
+    end subroutine output_close
+
+    !> True when a write has failed.
+    pure logical function output_failed(self)
+        class(output_t), intent(in) :: self
+        output_failed = self%error /= 0
+    end function output_failed
+
+    !> Create the directory `path` and its missing parents (mkdir -p, without a shell).
+    !! Failure: HOLOSYM_INVALID_ARGUMENT naming the path and the system's reason.
+    subroutine make_directories(path, status)
+        character(len=*), intent(in) :: path          !! the directory
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer(c_int) :: error
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        error = c_make_directories(c_text(path))
+        if (error /= 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "cannot create directory '" // path // "': " // &
+                error_text(int(error))
+        end if
+    end subroutine make_directories
+
+    !> The system's text for an errno value.
+    function error_text(error) result(text)
+        integer, intent(in) :: error !! errno value
+        character(len=:), allocatable :: text
+        character(kind=c_char, len=256) :: buffer
+        integer :: ends
+        buffer = ""
+        call c_error_text(int(error, c_int), buffer, int(len(buffer), c_int))
+        ends = index(buffer, c_null_char)
+        if (ends == 0) ends = len(buffer) + 1
+        text = buffer(:ends - 1)
+    end function error_text
+
+    !> Keep closed standard output and error from being reused by files, and make a
+    !! file-size limit fail a write instead of killing the process (see
+    !! holosym_keep_standard_streams): writes then fail visibly.
+    subroutine keep_standard_streams()
+        call c_keep_standard_streams()
+    end subroutine keep_standard_streams
+
+    !> `text` NUL-terminated for C.
+    pure function c_text(text) result(terminated)
+        character(len=*), intent(in) :: text
+        character(kind=c_char, len=len(text) + 1) :: terminated
+        terminated = text // c_null_char
+    end function c_text
+
+end module holosym_output
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_output) holosym_output_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_output_app
