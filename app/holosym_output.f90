@@ -1,23 +1,42 @@
-!> Output of the `holosym` tool whose failures are seen: a full disk, a full device
-!! (/dev/full), a closed standard output or a file-size limit make the command fail.
+!> Files and programs of the `holosym` tool, handled so that failures are seen and no
+!! text ever reaches a shell.
 !!
-!! gfortran's units do not report these: a `write`, `flush` or `close` to a full device
-!! returns iostat 0 (gfortran 12). So results go through `output_t`, which buffers lines
-!! and writes them with write(2), and on `close` forces a regular file to its device
-!! (fsync(2)) and checks close(2); the first failure is kept with its system error text.
-!! Directories are created with mkdir(2), never through a shell. The POSIX calls are in
+!! Output: a full disk, a full device (/dev/full), a closed standard output or a file-size
+!! limit make the command fail. gfortran's units do not report these: a `write`, `flush`
+!! or `close` to a full device returns iostat 0 (gfortran 12). So results go through
+!! `output_t`, which buffers lines and writes them with write(2), and on `close` forces a
+!! regular file to its device (fsync(2)) and checks close(2); the first failure is kept
+!! with its system error text.
+!!
+!! Input: `read_text_file` reads a whole text file, refusing what is not text (a NUL or
+!! other control byte, as /dev/zero or /dev/full give) and lines beyond `max_line_length`,
+!! so that no device or binary file makes a reader loop or exhaust memory.
+!!
+!! Directories are created with mkdir(2), files removed with unlink(2) and other programs
+!! run with posix_spawnp(3) (`run_program`), never through a shell: a path or argument
+!! with quotes, semicolons or `$(...)` is passed on as it is. The POSIX calls are in
 !! holosym_posix.c.
 module holosym_output
     use, intrinsic :: iso_c_binding, only: c_int, c_long, c_char, c_null_char
+    use, intrinsic :: iso_fortran_env, only: error_unit
     use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     implicit none
     private
 
     public :: output_t, open_output, standard_output, make_directories, error_text
-    public :: keep_standard_streams
+    public :: keep_standard_streams, remove_file, run_program, command_text, text_t
+    public :: read_text_file, append_text
+    public :: max_line_length
 
     !> Bytes collected before a write(2).
     integer, parameter :: buffer_size = 65536
+    !> Longest line `read_text_file` accepts (1 MiB).
+    integer, parameter :: max_line_length = 1048576
+
+    !> A piece of text of any length: a line of a file, or an argument of a program.
+    type :: text_t
+        character(len=:), allocatable :: text !! the text
+    end type text_t
 
     !> A text output: standard output or a file opened by `open_output`.
     type :: output_t
@@ -77,6 +96,20 @@ module holosym_output
 
         subroutine c_keep_standard_streams() bind(C, name="holosym_keep_standard_streams")
         end subroutine c_keep_standard_streams
+
+        integer(c_int) function c_remove_file(path) bind(C, name="holosym_remove_file")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_remove_file
+
+        integer(c_int) function c_run_program(args, count, output, exit_code, stage) &
+            bind(C, name="holosym_run_program")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: args(*)
+            integer(c_int), value :: count
+            character(kind=c_char), intent(in) :: output(*)
+            integer(c_int), intent(out) :: exit_code, stage
+        end function c_run_program
     end interface
 
     interface
@@ -201,6 +234,222 @@ contains
                 error_text(int(error))
         end if
     end subroutine make_directories
+
+    !> Remove the file `path` (unlink(2), without a shell); a missing file is no error.
+    !! Failure: HOLOSYM_INVALID_ARGUMENT naming the path and the system's reason.
+    subroutine remove_file(path, status)
+        character(len=*), intent(in) :: path          !! the file
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer(c_int) :: error
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        error = c_remove_file(c_text(path))
+        if (error /= 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "cannot remove '" // path // "': " // error_text(int(error))
+        end if
+    end subroutine remove_file
+
+    !> Run the program `argv(1)` with the arguments `argv(2:)` and wait for it. No shell is
+    !! involved: every argument reaches the program exactly as given (quotes, semicolons,
+    !! `$(...)` included), and the program is found on PATH unless its name has a '/'.
+    !! Its standard output goes to the file `output` (created or truncated), or to this
+    !! process's standard error when `output` is "" (so that it never mixes with the
+    !! results on standard output). `exit_code`: the program's exit status, 128 + the
+    !! signal that ended it, or -1 when it did not run. Failure to start it or to open
+    !! `output` (not the program's own exit status): HOLOSYM_INVALID_ARGUMENT with the
+    !! program or file and the system's reason.
+    subroutine run_program(argv, output, exit_code, status)
+        type(text_t), intent(in) :: argv(:)           !! the program and its arguments
+        character(len=*), intent(in) :: output        !! file for its standard output, or ""
+        integer, intent(out) :: exit_code             !! its exit status
+        type(holosym_status_t), intent(out) :: status !! outcome of starting it
+        character(len=:), allocatable :: packed
+        integer(c_int) :: error, code, stage
+        integer :: k
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        exit_code = -1
+        if (size(argv) == 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "run_program: no program given"
+            return
+        end if
+        packed = ""
+        do k = 1, size(argv)
+            if (index(argv(k)%text, c_null_char) > 0) then
+                status%code = HOLOSYM_INVALID_ARGUMENT
+                status%message = "argument " // int_text(k) // " of '" // argv(1)%text // &
+                    "' holds a NUL character"
+                return
+            end if
+            packed = packed // argv(k)%text // c_null_char
+        end do
+        ! Messages written so far come before the program's.
+        flush (error_unit, iostat=k)
+        error = c_run_program(packed, int(size(argv), c_int), c_text(output), code, stage)
+        exit_code = int(code)
+        if (error /= 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            select case (stage)
+            case (1)
+                status%message = "cannot open '" // output // "': " // error_text(int(error))
+            case (2)
+                status%message = "cannot run '" // argv(1)%text // "': " // &
+                    error_text(int(error))
+            case default
+                status%message = "waiting for '" // argv(1)%text // "' failed: " // &
+                    error_text(int(error))
+            end select
+        end if
+    end subroutine run_program
+
+    !> Append `text` to `list` (a program's arguments, a file's lines).
+    pure subroutine append_text(list, text)
+        type(text_t), allocatable, intent(inout) :: list(:) !! grows by one element
+        character(len=*), intent(in) :: text                !! the new last element
+        type(text_t), allocatable :: longer(:)
+        integer :: k
+        if (.not. allocated(list)) allocate (list(0))
+        allocate (longer(size(list) + 1))
+        do k = 1, size(list)
+            call move_alloc(list(k)%text, longer(k)%text)
+        end do
+        longer(size(longer))%text = text
+        call move_alloc(longer, list)
+    end subroutine append_text
+
+    !> A program and its arguments as one line for messages: arguments with characters
+    !! other than letters, digits and _./=:,+- shown in single quotes (for reading only:
+    !! `run_program` never hands this text to a shell).
+    pure function command_text(argv) result(text)
+        type(text_t), intent(in) :: argv(:) !! the program and its arguments
+        character(len=:), allocatable :: text
+        character(len=*), parameter :: plain = "abcdefghijklmnopqrstuvwxyz" // &
+            "ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_./=:,+-"
+        integer :: k, c
+        text = ""
+        do k = 1, size(argv)
+            if (k > 1) text = text // " "
+            if (len(argv(k)%text) > 0 .and. verify(argv(k)%text, plain) == 0) then
+                text = text // argv(k)%text
+            else
+                text = text // "'"
+                do c = 1, len(argv(k)%text)
+                    if (argv(k)%text(c:c) == "'") then
+                        text = text // "'\''"
+                    else
+                        text = text // argv(k)%text(c:c)
+                    end if
+                end do
+                text = text // "'"
+            end if
+        end do
+    end function command_text
+
+    !> Every line of the text file `path`, without line ends (a last line without its end
+    !! is kept). Failure (HOLOSYM_INVALID_ARGUMENT, naming the file and the line; `lines`
+    !! then empty): the file cannot be opened or read, a line holds a control character
+    !! other than a tab or a carriage return (a NUL from a device such as /dev/zero or
+    !! /dev/full, a binary file), or a line is longer than `max_line_length`.
+    subroutine read_text_file(path, lines, status)
+        character(len=*), intent(in) :: path                 !! the file
+        type(text_t), allocatable, intent(out) :: lines(:)   !! its lines
+        type(holosym_status_t), intent(out) :: status        !! outcome
+        character(len=4096) :: chunk
+        character(len=256) :: message
+        character(len=:), allocatable :: line
+        type(text_t), allocatable :: grown(:)
+        integer :: unit, ios, got, count, bad
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        allocate (lines(0))
+        open (newunit=unit, file=path, status="old", action="read", access="sequential", &
+              form="formatted", iostat=ios, iomsg=message)
+        if (ios /= 0) then
+            call failed("cannot read '" // path // "': " // trim(message))
+            return
+        end if
+        allocate (grown(64))
+        count = 0
+        do
+            line = ""
+            do
+                read (unit, '(a)', advance="no", iostat=ios, iomsg=message, size=got) chunk
+                bad = verify_text(chunk(:got))
+                if (bad > 0) then
+                    call failed(path // ": line " // int_text(count + 1) // ": not text " &
+                        // "(control character " // int_text(iachar(chunk(bad:bad))) // &
+                        " at column " // int_text(len(line) + bad) // ")")
+                    close (unit)
+                    return
+                end if
+                if (len(line) + got > max_line_length) then
+                    call failed(path // ": line " // int_text(count + 1) // ": longer " // &
+                        "than " // int_text(max_line_length) // " characters")
+                    close (unit)
+                    return
+                end if
+                line = line // chunk(:got)
+                if (ios /= 0) exit
+            end do
+            if (is_iostat_end(ios)) then
+                if (len(line) > 0) call append()
+                exit
+            end if
+            if (.not. is_iostat_eor(ios)) then
+                call failed(path // ": line " // int_text(count + 1) // ": cannot read: " &
+                    // trim(message))
+                close (unit)
+                return
+            end if
+            call append()
+        end do
+        close (unit)
+        lines = grown(:count)
+    contains
+        subroutine append()
+            type(text_t), allocatable :: larger(:)
+            if (count == size(grown)) then
+                allocate (larger(2 * size(grown)))
+                larger(:count) = grown(:count)
+                call move_alloc(larger, grown)
+            end if
+            count = count + 1
+            grown(count)%text = line
+        end subroutine append
+        subroutine failed(why)
+            character(len=*), intent(in) :: why
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = why
+            if (allocated(lines)) deallocate (lines)
+            allocate (lines(0))
+        end subroutine failed
+    end subroutine read_text_file
+
+    !> Position of the first control character of `text` other than a tab or a carriage
+    !! return, 0 if none.
+    pure integer function verify_text(text) result(position)
+        character(len=*), intent(in) :: text
+        integer :: k, code
+        position = 0
+        do k = 1, len(text)
+            code = iachar(text(k:k))
+            if ((code < 32 .and. code /= 9 .and. code /= 13) .or. code == 127) then
+                position = k
+                return
+            end if
+        end do
+    end function verify_text
+
+    !> An integer as text.
+    pure function int_text(value) result(text)
+        integer, intent(in) :: value
+        character(len=:), allocatable :: text
+        character(len=16) :: buffer
+        write (buffer, '(i0)') value
+        text = trim(buffer)
+    end function int_text
 
     !> The system's text for an errno value.
     function error_text(error) result(text)

@@ -1,15 +1,22 @@
 /* POSIX services of the holosym tool (see app/holosym_output.f90): writes whose failures
  * are seen (write(2), fsync(2) and close(2) results; gfortran's own units drop them),
- * directories created without a shell (mkdir(2)), error texts, and the standard streams
- * kept on their descriptors. Every function returns 0 or an errno value. */
+ * directories created and files removed without a shell (mkdir(2), unlink(2)), other
+ * programs run without a shell (posix_spawnp(3): each argument reaches the program as
+ * given), error texts, and the standard streams kept on their descriptors. Every
+ * function returns 0 or an errno value. */
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
+#include <spawn.h>
 #include <stddef.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/types.h>
+#include <sys/wait.h>
 #include <unistd.h>
+
+extern char **environ;
 
 /* Open (create or truncate) a file for writing; the descriptor in *fd. */
 int holosym_open_write(const char *path, int *fd)
@@ -92,6 +99,77 @@ int holosym_make_directories(const char *path)
                 return ENOTDIR;
         }
     }
+    return 0;
+}
+
+/* Remove a file (unlink(2)); a file that does not exist is no error (rm -f). */
+int holosym_remove_file(const char *path)
+{
+    if (unlink(path) != 0 && errno != ENOENT)
+        return errno;
+    return 0;
+}
+
+/* Run a program and wait for it, without a shell. `args` holds `count` >= 1
+ * NUL-terminated arguments one after the other, the first the program (found on PATH
+ * when it has no '/', as execvp(3) does). The program's standard output goes to the file
+ * `output` (created or truncated) or, when `output` is "", to this process's standard
+ * error; standard input and error are inherited. *exit_code: the program's exit status,
+ * or 128 + the signal that ended it. *stage says what failed: 1 opening `output`, 2
+ * starting the program, 3 waiting for it (0: nothing). */
+int holosym_run_program(const char *args, int count, const char *output, int *exit_code,
+                        int *stage)
+{
+    char **argv;
+    const char *next = args;
+    posix_spawn_file_actions_t actions;
+    pid_t pid;
+    int i, fd = -1, error, wait_status;
+    *exit_code = -1;
+    *stage = 2;
+    if (count < 1)
+        return EINVAL;
+    argv = malloc(((size_t)count + 1) * sizeof *argv);
+    if (argv == NULL)
+        return ENOMEM;
+    for (i = 0; i < count; i++) {
+        argv[i] = (char *)next;
+        next += strlen(next) + 1;
+    }
+    argv[count] = NULL;
+    if (output[0] != '\0') {
+        do {
+            fd = open(output, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+        } while (fd < 0 && errno == EINTR);
+        if (fd < 0) {
+            error = errno;
+            free(argv);
+            *stage = 1;
+            return error;
+        }
+    }
+    error = posix_spawn_file_actions_init(&actions);
+    if (error == 0) {
+        error = posix_spawn_file_actions_adddup2(&actions, fd >= 0 ? fd : 2, 1);
+        if (error == 0)
+            error = posix_spawnp(&pid, argv[0], &actions, NULL, argv, environ);
+        posix_spawn_file_actions_destroy(&actions);
+    }
+    if (fd >= 0)
+        close(fd);
+    free(argv);
+    if (error != 0)
+        return error;
+    *stage = 3;
+    while (waitpid(pid, &wait_status, 0) < 0) {
+        if (errno != EINTR)
+            return errno;
+    }
+    *stage = 0;
+    if (WIFEXITED(wait_status))
+        *exit_code = WEXITSTATUS(wait_status);
+    else if (WIFSIGNALED(wait_status))
+        *exit_code = 128 + WTERMSIG(wait_status);
     return 0;
 }
 
