@@ -380,34 +380,59 @@ contains
         ! or step counts, a zero step, an unknown status code.
         call expect_failure([character(len=1000) :: csv_header, good_row, &
             "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,NaN,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,0,0"], "NaN error", &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "NaN error", &
             [character(len=24) :: "line 3", "field error", "NaN"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,holosym,real128,2,1,3,4,Inf,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,0,0"], "Inf h", [character(len=24) :: "line 2", "field h"])
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "Inf h", [character(len=24) :: "line 2", "field h"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E5000,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,0,0"], "error 1e5000", &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "error 1e5000", &
             [character(len=24) :: "line 2", "field error", "1.0E5000"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,-1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,0,0"], "negative seconds", &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "negative seconds", &
             [character(len=24) :: "line 2", "field seconds"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,holosym,real128,2,1,3,4,1.25E-1,-80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,0,0"], "negative steps", &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "negative steps", &
             [character(len=24) :: "line 2", "field steps"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,holosym,real128,2,1,3,4,0,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,0,0"], "zero h", [character(len=24) :: "line 2", "field h"])
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "zero h", [character(len=24) :: "line 2", "field h"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,-400,500,600,70,80,0,0"], "negative iterations", &
+            "1.25E-4,-400,500,600,70,80,0,0,0,0"], "negative iterations", &
             [character(len=24) :: "line 2", "newton_iterations"])
         call expect_failure([character(len=1000) :: csv_header, &
             "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
-            "1.25E-4,400,500,600,70,80,99,0"], "unknown status", &
+            "1.25E-4,400,500,600,70,80,99,0,0,0"], "unknown status", &
             [character(len=24) :: "line 2", "field status", "99"])
+        ! The fields of heyoka's runs: the tolerance and the compile time.
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,heyoka,real128,0,0,0,20,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,0,0,0,0,0,0,0,NaN,0.5"], "NaN tolerance", &
+            [character(len=24) :: "line 2", "field tolerance", "NaN"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,heyoka,real128,0,0,0,20,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,0,0,0,0,0,0,0,2,0.5"], "tolerance 2", &
+            [character(len=24) :: "line 2", "field tolerance", "[0, 1)"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,heyoka,real128,0,0,0,20,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,0,0,0,0,0,0,0,1.0E-20,-0.5"], "negative compile seconds", &
+            [character(len=24) :: "line 2", "field compile_seconds"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,heyoka,real128,0,0,0,20,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,0,0,0,0,0,0,0,1.0E-20,1e13"], "compile seconds 1e13", &
+            [character(len=24) :: "line 2", "field compile_seconds", "1e12"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real256,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "unknown precision", &
+            [character(len=24) :: "line 2", "precision", "real256"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9" // achar(0) // ",1.0E-10," // &
+            "1.0E-33,1.0E-2,1.25E-4,400,500,600,70,80,0,0,0,0"], "a NUL byte", &
+            [character(len=24) :: "line 2", "not text"])
 
         ! The well-formed file; bench64.csv, steps.csv and steps64.csv are missing and optional.
         call write_lines(path, [character(len=1000) :: csv_header, good_row])
