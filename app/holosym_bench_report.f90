@@ -1,14 +1,24 @@
 !> Sections of docs/performance.md from the CSV files of `holosym bench --scaling`
 !! (DIR/scaling.csv, scaling64.csv) and `--long` (DIR/long.csv): tables, the fitted
 !! exponent of the cost per step against K, and the verdicts on the scaling and long-run
-!! targets. Missing files give a line saying which command makes them.
+!! targets. Missing files give a line saying which command makes them; the files are
+!! read strictly (`check_report_files` before the page is written: `bench --summarize`
+!! fails on a malformed file instead of printing NaN or garbage).
 module holosym_bench_report
     use, intrinsic :: iso_fortran_env, only: real64
-    use holosym_output, only: output_t
+    use holosym_kinds, only: wp
+    use holosym_status, only: holosym_status_t, status_code_name, HOLOSYM_SUCCESS
+    use holosym_output, only: output_t, text_t, read_text_file
+    use holosym_cli_common, only: parse_integer, parse_real, fail
+    use holosym_bench_scaling, only: scaling_header
+    use holosym_bench_long, only: long_header
     implicit none
     private
 
-    public :: scaling_section, long_section, read_csv, csv_table_t
+    public :: scaling_section, long_section, read_csv, csv_table_t, check_report_files
+
+    !> Largest time in seconds a file may give (a bound that keeps ratios finite).
+    real(wp), parameter :: max_seconds = 1.0e12_wp
 
     !> Longest field of a CSV line.
     integer, parameter :: field_length = 64
@@ -28,62 +38,159 @@ module holosym_bench_report
 
 contains
 
-    !> Read a CSV file with a header line; `found` false when the file is missing or has a
-    !! line with another number of fields than the header.
-    subroutine read_csv(path, table, found)
+    !> Read the CSV file `path` whose first line must be `header`; `found` false when the
+    !! file does not exist. Every row must have the header's fields, each in its range
+    !! (`field_ok`); a field longer than `field_length` is refused. Failure
+    !! (HOLOSYM_INVALID_ARGUMENT: not text, another header, a row with other fields, a
+    !! value out of its range) names the file, the line and the field.
+    subroutine read_csv(path, header, table, found, status)
         character(len=*), intent(in) :: path      !! the file
+        character(len=*), intent(in) :: header    !! its expected first line
         type(csv_table_t), intent(out) :: table   !! its contents
-        logical, intent(out) :: found             !! read
-        character(len=2048) :: line
+        logical, intent(out) :: found             !! the file exists
+        type(holosym_status_t), intent(out) :: status !! outcome
+        type(text_t), allocatable :: lines(:)
         character(len=field_length), allocatable :: fields(:)
-        integer :: unit, ios, rows
+        character(len=:), allocatable :: problem
+        integer :: row, k
+        logical :: ok
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        allocate (table%names(0), table%cells(0, 0))
         inquire (file=path, exist=found)
         if (.not. found) return
-        open (newunit=unit, file=path, status="old", action="read", iostat=ios)
-        found = ios == 0
-        if (.not. found) return
-        read (unit, '(a)', iostat=ios) line
-        if (ios /= 0) then
-            found = .false.
-            close (unit)
+        call read_text_file(path, lines, status)
+        if (.not. status%ok()) return
+        if (size(lines) == 0) then
+            call fail(status, path // ": line 1: not the header " // header)
             return
         end if
-        table%names = split(line)
-        allocate (table%cells(size(table%names), 0))
-        rows = 0
-        do
-            read (unit, '(a)', iostat=ios) line
-            if (ios /= 0) exit
-            if (len_trim(line) == 0) cycle
-            fields = split(line)
-            if (size(fields) /= size(table%names)) then
-                found = .false.
-                exit
+        if (lines(1)%text /= header) then
+            call fail(status, path // ": line 1: not the header " // header)
+            return
+        end if
+        table%names = split(header)
+        deallocate (table%cells)
+        allocate (table%cells(size(table%names), size(lines) - 1))
+        do row = 2, size(lines)
+            call split_checked(lines(row)%text, size(table%names), fields, ok)
+            if (.not. ok) then
+                call fail(status, path // ": line " // int_text(row) // ": expected " // &
+                    int_text(size(table%names)) // " comma-separated fields of at most " // &
+                    int_text(field_length) // " characters")
+                return
             end if
-            table%cells = reshape([character(len=field_length) :: table%cells, fields], &
-                [size(table%names), rows + 1])
-            rows = rows + 1
+            do k = 1, size(fields)
+                problem = field_problem(trim(table%names(k)), trim(fields(k)))
+                if (len(problem) > 0) then
+                    call fail(status, path // ": line " // int_text(row) // ": field " // &
+                        trim(table%names(k)) // " " // problem // ": '" // trim(fields(k)) // "'")
+                    return
+                end if
+            end do
+            table%cells(:, row - 1) = fields
         end do
-        close (unit)
     end subroutine read_csv
 
-    !> The comma-separated fields of a line.
+    !> Fail when a scaling or long-run file in `dir` is malformed (see `read_csv`);
+    !! missing files are no error.
+    subroutine check_report_files(dir, status)
+        character(len=*), intent(in) :: dir !! directory of the CSV files
+        type(holosym_status_t), intent(inout) :: status !! failure naming file and line
+        type(csv_table_t) :: table
+        logical :: found
+        if (status%ok()) call read_csv(dir // "/scaling.csv", scaling_header, table, found, &
+                                       status)
+        if (status%ok()) call read_csv(dir // "/scaling64.csv", scaling_header, table, found, &
+                                       status)
+        if (status%ok()) call read_csv(dir // "/long.csv", long_header, table, found, status)
+    end subroutine check_report_files
+
+    !> What is wrong with the value `text` of the column `name` ("" when it is in range):
+    !! names from a fixed list (precision, path, system, method), counts and sizes as
+    !! integers in range, times in [0, 1e12] seconds, errors and residuals finite >= 0, a
+    !! tolerance in [0, 1), a span > 0, status a documented code.
+    function field_problem(name, text) result(problem)
+        character(len=*), intent(in) :: name, text
+        character(len=:), allocatable :: problem
+        type(holosym_status_t) :: local
+        integer :: integer_value
+        real(wp) :: value
+        problem = ""
+        select case (name)
+        case ("precision")
+            if (text /= "real128" .and. text /= "real64") problem = "is not real128 or real64"
+        case ("path")
+            if (text /= "reduced" .and. text /= "general") problem = "is not reduced or general"
+        case ("system")
+            if (text /= "pendulum" .and. text /= "linkage" .and. text /= "planar") &
+                problem = "is not pendulum, linkage or planar"
+        case ("method")
+            if (text /= "holosym" .and. text /= "heyoka") problem = "is not holosym or heyoka"
+        case ("config")
+            if (len(text) == 0) problem = "is empty"
+        case ("links", "n", "m", "steps", "max_rss_kb", "status")
+            call parse_integer(name, text, integer_value, local)
+            if (.not. local%ok()) then
+                problem = "is not an integer"
+            else if (name == "links" .and. integer_value < 1) then
+                problem = "is not >= 1"
+            else if (name == "max_rss_kb" .and. integer_value < -1) then
+                problem = "is not >= -1"
+            else if (name == "status") then
+                if (status_code_name(integer_value) == "unknown status") &
+                    problem = "is not a holosym status code"
+            else if (name /= "max_rss_kb" .and. integer_value < 0) then
+                problem = "is not >= 0"
+            end if
+        case default
+            call parse_real(name, text, value, local)
+            if (.not. local%ok()) then
+                problem = "is not a finite number"
+            else if (.not. value >= 0) then
+                problem = "is not >= 0"
+            else if (name == "span" .and. .not. value > 0) then
+                problem = "is not > 0"
+            else if (name == "tolerance" .and. .not. value < 1) then
+                problem = "is not in [0, 1)"
+            else if (index(name, "seconds") > 0 .and. .not. value <= max_seconds) then
+                problem = "is more than 1e12 seconds"
+            end if
+        end select
+    end function field_problem
+
+    !> The comma-separated fields of a header line.
     pure function split(line) result(fields)
         character(len=*), intent(in) :: line
         character(len=field_length), allocatable :: fields(:)
-        integer :: first, comma
-        allocate (fields(0))
-        first = 1
-        do
-            comma = index(line(first:), ",")
-            if (comma == 0) then
-                fields = [character(len=field_length) :: fields, line(first:len_trim(line))]
-                exit
-            end if
-            fields = [character(len=field_length) :: fields, line(first:first + comma - 2)]
-            first = first + comma
-        end do
+        logical :: ok
+        call split_checked(line, -1, fields, ok)
     end function split
+
+    !> Split `line` at its commas into `fields`; `ok` false when a field is longer than
+    !! `field_length` or, with `expected` >= 0, the count is not `expected`.
+    pure subroutine split_checked(line, expected, fields, ok)
+        character(len=*), intent(in) :: line
+        integer, intent(in) :: expected
+        character(len=field_length), allocatable, intent(out) :: fields(:)
+        logical, intent(out) :: ok
+        integer :: first, comma, count, k, last
+        count = 1
+        do k = 1, len(line)
+            if (line(k:k) == ",") count = count + 1
+        end do
+        ok = expected < 0 .or. count == expected
+        allocate (fields(count))
+        first = 1
+        do k = 1, count
+            comma = index(line(first:), ",")
+            last = len(line)
+            if (comma > 0) last = first + comma - 2
+            if (last - first + 1 > field_length) ok = .false.
+            fields(k) = line(first:last)
+            first = last + 2
+        end do
+    end subroutine split_checked
 
     !> Column of a named field (0 when absent).
     pure integer function column(table, name)
@@ -181,11 +288,14 @@ contains
         character(len=:), allocatable :: line
         character(len=7), parameter :: precisions(2) = ["real128", "real64 "]
         character(len=7), parameter :: paths(2) = ["reduced", "general"]
+        type(holosym_status_t) :: status
         call unit%line("")
         call unit%line("## Scaling: a chain of K planar pendula")
         call unit%line("")
-        call read_csv(dir // "/scaling.csv", quad, have_quad)
-        call read_csv(dir // "/scaling64.csv", double, have_double)
+        call read_csv(dir // "/scaling.csv", scaling_header, quad, have_quad, status)
+        if (.not. status%ok()) have_quad = .false.
+        call read_csv(dir // "/scaling64.csv", scaling_header, double, have_double, status)
+        if (.not. status%ok()) have_double = .false.
         if (.not. (have_quad .or. have_double)) then
             call unit%line("No scaling.csv in " // dir // ": `holosym bench --scaling` " // &
                 "makes it.")
@@ -283,11 +393,12 @@ contains
         character(len=:), allocatable :: line
         character(len=field_length), allocatable :: cases(:)
         integer :: r, c, t, mine, theirs
+        type(holosym_status_t) :: status
         call unit%line("")
         call unit%line("## Long runs")
         call unit%line("")
-        call read_csv(dir // "/long.csv", table, found)
-        if (.not. found) then
+        call read_csv(dir // "/long.csv", long_header, table, found, status)
+        if (.not. (found .and. status%ok())) then
             call unit%line("No long.csv in " // dir // ": `make bench-long` " // &
                 "(`holosym bench --long --heyoka PYTHON`) makes it.")
             return

@@ -440,8 +440,46 @@ contains
         call check(error, result%exit_code == 0 .and. size(result%out) > 0, &
             "the well-formed file is summarized")
         call check(error, file_exists(dir // "/summary.md"), "summary.md written")
+        if (allocated(error)) return
+
+        ! The scaling and long-run files of the same directory are read as strictly.
+        call write_lines(dir // "/scaling.csv", [character(len=100) :: &
+            "precision,path,links,n,m,steps,seconds_per_step,max_rss_kb,status", &
+            "real128,reduced,4,8,4,64,NaN,5000,0"])
+        call summarize(error, dir, result)
+        call check(error, result%exit_code == exit_failure .and. any_line(result, &
+            "scaling.csv: line 2: field seconds_per_step is not a finite number: 'NaN'"), &
+            "NaN seconds in scaling.csv: exit " // int_str(result%exit_code))
+        call write_lines(dir // "/scaling.csv", [character(len=100) :: &
+            "precision,path,links,n,m,steps,seconds_per_step,max_rss_kb,status", &
+            "real128,reduced,4,8,4,64,1.0E-3,5000,0"])
+        call write_lines(dir // "/long.csv", [character(len=160) :: &
+            "system,method,precision,span,config,tolerance,steps,error,max_phi,max_hidden," &
+            // "energy_error,seconds,compile_seconds,status", "planar,holosym,real128,20," // &
+            "(6 5 7) h=0.5,0,-40,1.0E-21,1.0E-33,1.0E-33,1.0E-30,0.1,0,0"])
+        call summarize(error, dir, result)
+        call check(error, result%exit_code == exit_failure .and. any_line(result, &
+            "long.csv: line 2: field steps is not >= 0: '-40'"), &
+            "negative steps in long.csv: exit " // int_str(result%exit_code))
+        call write_lines(dir // "/long.csv", [character(len=160) :: &
+            "system,method,precision,span,config,tolerance,steps,error,max_phi,max_hidden," &
+            // "energy_error,seconds,compile_seconds,status", "planar,holosym,real128,20," // &
+            "(6 5 7) h=0.5,0,40,1.0E-21,1.0E-33,1.0E-33,1.0E-30,0.1,0,0"])
+        call summarize(error, dir, result)
+        call check(error, result%exit_code == 0, "well-formed scaling.csv and long.csv: " // &
+            "exit " // int_str(result%exit_code))
 
     contains
+
+        logical function any_line(outcome, text)
+            type(command_result_t), intent(in) :: outcome
+            character(len=*), intent(in) :: text
+            integer :: k
+            any_line = .false.
+            do k = 1, size(outcome%err)
+                if (index(outcome%err(k)%text, text) > 0) any_line = .true.
+            end do
+        end function any_line
 
         subroutine expect_failure(lines, what, fragments)
             character(len=*), intent(in) :: lines(:)
