@@ -19,6 +19,11 @@
 !! With `interval` > 0 the rows are at the multiples of `interval` instead, from the step's
 !! dense output (`step_dense_output`) between step ends; such a row's residuals are those
 !! of the interpolated state, which meets the constraints only at the displacement nodes.
+!!
+!! A file opened by the writer (`file=`) is checked when closed: its size must be the
+!! bytes written, since gfortran (12) reports neither a full disk nor a full device nor
+!! a file-size limit on write, flush or close (iostat 0). Such a file must therefore be a
+!! regular file; write to a device or a pipe through `unit=`.
 module holosym_observers
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
@@ -80,6 +85,9 @@ module holosym_observers
         integer :: rows = 0
         integer, private :: unit = -1
         logical, private :: owns_unit = .false.
+        !> The file opened by `open` and the bytes written to it (checked by `close`).
+        character(len=:), allocatable, private :: path
+        integer(int64), private :: bytes = 0
         logical, private :: opened = .false.
         character(len=16), private :: real_format = ""
         integer, private :: every = 1
@@ -297,6 +305,9 @@ contains
         self%rows = 0
         self%unit = new_unit
         self%owns_unit = present(file)
+        self%path = ""
+        if (present(file)) self%path = file
+        self%bytes = len(trajectory_header(sys%n, sys%m)) + 1
         self%opened = .true.
         if (chosen_digits == short_digits) then
             self%real_format = '(es25.16e4)'
@@ -391,13 +402,16 @@ contains
     end subroutine writer_observe
 
     !> Finish the CSV: the start row when no step was observed (multipliers NaN), the last
-    !! observed step's row when `every` skipped it; close a file opened by `open`.
-    !! Codes: HOLOSYM_NOT_INITIALIZED (not opened), HOLOSYM_USER_ABORT (a row could not be
-    !! written; the message has the I/O error).
+    !! observed step's row when `every` skipped it; close a file opened by `open` and check
+    !! that it holds every byte written. Codes: HOLOSYM_NOT_INITIALIZED (not opened),
+    !! HOLOSYM_USER_ABORT (a row could not be written, or the file is short of the bytes
+    !! written: a full disk or device, a file-size limit; the message says which).
     subroutine writer_close(self, status)
         class(trajectory_writer), intent(inout) :: self
         type(holosym_status_t), intent(out), optional :: status !! outcome
         real(wp), allocatable :: nan(:)
+        integer(int64) :: size_after
+        character(len=24) :: got, wanted
         integer :: ios
         if (.not. self%opened) then
             call set_status(status, HOLOSYM_NOT_INITIALIZED, "trajectory_writer: close " // &
@@ -417,7 +431,18 @@ contains
             self%pending = .false.
         end if
         flush (self%unit, iostat=ios)
-        if (self%owns_unit) close (self%unit, iostat=ios)
+        if (self%owns_unit) then
+            close (self%unit, iostat=ios)
+            inquire (file=self%path, size=size_after)
+            if (self%io_status == 0 .and. size_after /= self%bytes) then
+                self%io_status = -1
+                write (got, '(i0)') max(size_after, 0_int64)
+                write (wanted, '(i0)') self%bytes
+                self%io_message = "only " // trim(got) // " of " // trim(wanted) // &
+                    " bytes reached '" // self%path // "' (a full disk or device, a " // &
+                    "file-size limit, or not a regular file)"
+            end if
+        end if
         self%opened = .false.
         if (self%io_status /= 0) then
             call set_status(status, HOLOSYM_USER_ABORT, "writing the trajectory failed " // &
@@ -488,6 +513,7 @@ contains
             self%io_message = trim(io_message)
         else
             self%rows = self%rows + 1
+            self%bytes = self%bytes + len(line) + 1
         end if
     contains
         function field(value) result(text)
