@@ -2,6 +2,7 @@
 !! The constraint manifold {phi(q) = 0, Phi(q) H_p(q, p) = 0}: residuals of a state, scaled
 !! so that a tolerance tied to epsilon means "at round-off level", and the rank test of Phi.
 module holosym_manifold
+    use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
     use holosym_problem, only: constrained_hamiltonian
@@ -16,13 +17,20 @@ module holosym_manifold
     !> Default tolerance on the scaled residuals: 2**10 epsilon, room for the round-off of
     !! evaluating phi and Phi H_p with a few hundred operations.
     real(wp), parameter, public :: manifold_tolerance_default = 1024 * epsilon(1.0_wp)
+    !> Entries of Phi beyond which `manifold_residuals` takes the system's declared sparsity
+    !! (when it has one) instead of forming the m x n matrix.
+    integer(int64), parameter :: dense_entries_limit = 65536
 
 contains
 
     !> Residuals of a state: `position = max|phi(q)|`, `velocity = max|Phi(q) H_p(q,p)|`,
     !! and the same divided by their round-off scales, 1 + |q| |Phi_l| for phi_l and
     !! 1 + sum_i |Phi_li| |H_p,i| for the hidden constraint l. All are NaN when the system
-    !! returns a NaN or infinite value.
+    !! returns a NaN or infinite value, or when Phi is too large to form (m n entries
+    !! beyond the default integer) and the system declares no sparsity. A system with more
+    !! than `dense_entries_limit` entries of Phi and a declared sparsity is evaluated on
+    !! its pattern (`sparse_manifold_residuals`): a chain of 10^5 links needs no
+    !! 10^5 x 2 10^5 matrix.
     subroutine manifold_residuals(sys, q, p, position, velocity, scaled_position, &
                                   scaled_velocity, velocity_field)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
@@ -33,8 +41,10 @@ contains
         real(wp), intent(out), optional :: scaled_position !! max |phi_l| / scale_l
         real(wp), intent(out), optional :: scaled_velocity !! max |(Phi H_p)_l| / scale_l
         real(wp), intent(out), optional :: velocity_field(:) !! H_p(q, p) (n), also for m = 0
-        real(wp) :: phi(sys%m), jac(sys%m, sys%n), hp(sys%n), hidden(sys%m)
-        integer :: l
+        real(wp) :: phi(sys%m), hp(sys%n), hidden(sys%m), sparse_position, sparse_velocity
+        real(wp), allocatable :: jac(:, :)
+        integer, allocatable :: rows(:), columns(:)
+        integer :: l, ios
 
         position = 0
         velocity = 0
@@ -42,6 +52,23 @@ contains
         if (present(scaled_velocity)) scaled_velocity = 0
         if (sys%m == 0) then
             if (present(velocity_field)) call sys%dh_dp(q, p, velocity_field)
+            return
+        end if
+        if (int(sys%m, int64) * sys%n > dense_entries_limit) then
+            call sys%constraint_sparsity(rows, columns)
+            if (valid_pattern(rows, columns, sys%m, sys%n)) then
+                call sparse_manifold_residuals(sys, rows, columns, q, p, position, velocity, &
+                    sparse_position, sparse_velocity, velocity_field)
+                if (present(scaled_position)) scaled_position = sparse_position
+                if (present(scaled_velocity)) scaled_velocity = sparse_velocity
+                return
+            end if
+        end if
+        ios = 1
+        if (int(sys%m, int64) * sys%n <= huge(0)) allocate (jac(sys%m, sys%n), stat=ios)
+        if (ios /= 0) then
+            if (present(velocity_field)) call sys%dh_dp(q, p, velocity_field)
+            call not_finite(position, velocity, scaled_position, scaled_velocity)
             return
         end if
         call sys%constraint(q, phi)
@@ -62,6 +89,16 @@ contains
                 abs(hidden(l)) / (1 + sum(abs(jac(l, :)) * abs(hp))))
         end do
     end subroutine manifold_residuals
+
+    !> Whether a declared pattern of Phi is one to use: entries in range, fewer than m n.
+    pure logical function valid_pattern(rows, columns, m, n) result(valid)
+        integer, intent(in) :: rows(:), columns(:) !! the pattern
+        integer, intent(in) :: m, n                !! the shape of Phi
+        valid = .false.
+        if (size(rows) /= size(columns) .or. size(rows) == 0) return
+        if (int(size(rows), int64) >= int(m, int64) * n) return
+        valid = all(rows >= 1 .and. rows <= m) .and. all(columns >= 1 .and. columns <= n)
+    end function valid_pattern
 
     !> `manifold_residuals` for a system with a sparse constraint Jacobian: Phi from
     !! `constraint_jacobian_values` at the pattern (rows, columns) of `constraint_sparsity`
