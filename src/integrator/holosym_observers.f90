@@ -210,19 +210,25 @@ contains
         integer, intent(in) :: n !! number of coordinates
         integer, intent(in) :: m !! number of constraints
         character(len=:), allocatable :: header !! the header line
-        integer :: i
-        header = "t"
-        do i = 1, n
-            header = header // ",q" // int_str(i)
+        character(len=:), allocatable :: buffer, piece
+        integer :: i, used
+        ! Filled in place (appending name by name copies the line once per name).
+        allocate (character(len=(2 * max(n, 0) + max(m, 0)) * 18 + 80) :: buffer)
+        buffer(1:1) = "t"
+        used = 1
+        do i = 1, 2 * n + m
+            if (i <= n) then
+                piece = ",q" // int_str(i)
+            else if (i <= 2 * n) then
+                piece = ",p" // int_str(i - n)
+            else
+                piece = ",lambda" // int_str(i - 2 * n)
+            end if
+            buffer(used + 1:used + len(piece)) = piece
+            used = used + len(piece)
         end do
-        do i = 1, n
-            header = header // ",p" // int_str(i)
-        end do
-        do i = 1, m
-            header = header // ",lambda" // int_str(i)
-        end do
-        header = header // ",H,energy_error,constraint_residual,velocity_residual," // &
-            "newton_iterations"
+        header = buffer(:used) // ",H,energy_error,constraint_residual,velocity_residual," &
+            // "newton_iterations"
     end function trajectory_header
 
     !> Open the writer for a run of `sys` from (q, p): the CSV goes to `file` (replaced) or
@@ -492,21 +498,25 @@ contains
         real(wp) :: energy_error
         character(len=:), allocatable :: line
         character(len=256) :: io_message
-        integer :: i, ios
-        line = field(t)
+        integer :: i, ios, used
+        ! Filled in place (appending field by field copies the line once per field).
+        allocate (character(len=(size(q) + size(p) + size(lambda) + 6) * 50) :: line)
+        used = 0
+        call put(field(t))
         do i = 1, size(q)
-            line = line // "," // field(q(i))
+            call put("," // field(q(i)))
         end do
         do i = 1, size(p)
-            line = line // "," // field(p(i))
+            call put("," // field(p(i)))
         end do
         do i = 1, size(lambda)
-            line = line // "," // field(lambda(i))
+            call put("," // field(lambda(i)))
         end do
         energy_error = (energy - self%monitor%initial_energy) / self%monitor%energy_scale
         if (present(start_row)) energy_error = 0
-        line = line // "," // field(energy) // "," // field(energy_error) // "," // &
-            field(position) // "," // field(velocity) // "," // int_str(iterations)
+        call put("," // field(energy) // "," // field(energy_error) // "," // &
+            field(position) // "," // field(velocity) // "," // int_str(iterations))
+        line = line(:used)
         write (self%unit, '(a)', iostat=ios, iomsg=io_message) line
         if (ios /= 0) then
             self%io_status = ios
@@ -523,6 +533,11 @@ contains
             write (buffer, self%real_format) value
             text = trim(adjustl(buffer))
         end function field
+        subroutine put(text)
+            character(len=*), intent(in) :: text
+            line(used + 1:used + len(text)) = text
+            used = used + len(text)
+        end subroutine put
     end subroutine write_row
 
 end module holosym_observers
