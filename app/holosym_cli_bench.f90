@@ -26,13 +26,13 @@ module holosym_cli_bench
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
-    use holosym_systems, only: make_system, system_choices
+    use holosym_systems, only: make_system, system_choices, max_links
     use holosym_output, only: output_t, open_output, make_directories, remove_file, &
         run_program, command_text, text_t, read_text_file, append_text
     use holosym_bench_scaling, only: scaling_point, scaling_links, scaling_header, &
         general_links_limit
     use holosym_bench_long, only: run_long
-    use holosym_bench_report, only: scaling_section, long_section
+    use holosym_bench_report, only: scaling_section, long_section, check_report_files
     implicit none
     private
 
@@ -119,8 +119,8 @@ contains
             "  --scaling        instead: chain of K pendula, K = 1..256, (4,3,5), h = 0.01:", &
             "                   cost per step, peak memory, reduced and general paths", &
             "                   (DIR/scaling.csv, scaling64.csv in the real64 build)", &
-            "  --scaling-point K  one point of --scaling: its CSV line (--general: the", &
-            "                   general path)", &
+            "  --scaling-point K  one point of --scaling (K = 1..100000): its CSV line", &
+            "                   (--general: the general path)", &
             "  --long           instead: long runs (planar T = 1e4, 1e5, spherical 1e4) to", &
             "                   errors 1e-20 and 1e-24 (DIR/long.csv; about an hour;", &
             "                   --quick: T = 20 and 10)", &
@@ -186,9 +186,8 @@ contains
                 case ("--heyoka")
                     options%heyoka = value
                 case ("--scaling-point")
-                    call parse_integer(name, value, options%scaling_point, status)
-                    if (status%ok() .and. options%scaling_point < 1) call fail(status, &
-                        "option --scaling-point must be >= 1; got '" // value // "'")
+                    call parse_integer_in(name, value, 1, max_links, options%scaling_point, &
+                                          status)
                 case ("--systems")
                     options%systems = value
                     call check_systems(value, status)
@@ -1151,6 +1150,7 @@ contains
         end do
         if (status%ok()) call read_bench_csv(dir // "/steps.csv", steps_rows, status, .true.)
         if (status%ok()) call read_bench_csv(dir // "/steps64.csv", steps_rows, status, .true.)
+        call check_report_files(dir, status)
         if (.not. status%ok()) return
         call open_output(dir // "/performance.md", file, status)
         if (.not. status%ok()) return

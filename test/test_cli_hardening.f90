@@ -7,7 +7,7 @@
 !! `extremes`; and a bounded randomized test of bad argument vectors on every command.
 module test_cli_hardening
     use, intrinsic :: iso_fortran_env, only: int64
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, wp_is_double
     use holosym_status, only: int_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, overflow_traps
     use holosym_test_commands, only: command_result_t, text_line_t, run_holosym, run_shell, &
@@ -32,8 +32,11 @@ contains
         tests = [ &
             new_test("size_options_have_ranges", size_ranges), &
             new_test("unwritable_output_fails", unwritable_output), &
+            new_test("unwritable_ensemble_figures_bench_files", unwritable_files), &
+            new_test("devices_as_input_files_refused", device_inputs), &
             new_test("step_counts_checked", step_counts), &
             new_test("directories_made_without_a_shell", no_shell), &
+            new_test("children_and_paths_without_a_shell", no_shell_anywhere), &
             new_test("reference_file_read_strictly", reference_file), &
             new_test("quotients_and_numbers_out_of_range", numbers_out_of_range), &
             new_test("empty_values_rejected", empty_values), &
@@ -205,6 +208,144 @@ contains
             // int_str(result%exit_code) // ": " // first_error(result))
     end subroutine unwritable_output
 
+    !> The files of `ensemble`, `figures` and `bench` that cannot be written (a link to
+    !! /dev/full, a file-size limit) fail the command with exit 1 and the file's name:
+    !! the ensemble's results, timing log and samples (no row for the trajectory whose
+    !! samples were lost, and --resume completes the run once the disk has room), each kind
+    !! of figure file (the library's trajectory writer and the tool's own), and the
+    !! bench's CSV, reference, summary and performance files.
+    subroutine unwritable_files(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: lines(:)
+        character(len=:), allocatable :: dir, run
+        character(len=24), parameter :: figure_files(4) = [character(len=24) :: &
+            "fig1_pendulum.csv", "fig5_constraints.csv", "long_run.csv", "convergence.csv"]
+        character(len=12), parameter :: figure_names(4) = [character(len=12) :: "fig1", &
+            "fig5", "long", "convergence"]
+        integer :: k, ios
+        dir = absolute(scratch_path("unwritable"))
+        call run_shell("rm -rf " // shell_quote(dir) // " && mkdir -p " // shell_quote(dir // &
+            "/samples") // " && ln -s /dev/full " // shell_quote(dir // "/full"), result)
+        run = "EXE ensemble --system linkage --perturb 3 --T 1 --quiet --output "
+        ! Timing log on a full device.
+        call shell_with_exe(run // shell_quote(dir // "/a.csv") // " --timing /dev/full", &
+                            result)
+        call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
+            any_line_contains(result%err, "timing log") .and. &
+            any_line_contains(result%err, "'/dev/full'"), "ensemble --timing /dev/full: " // &
+            "exit " // int_str(result%exit_code) // ": " // first_error(result))
+        ! Results beyond a file-size limit of 1 KiB (the header and one row fit).
+        call shell_with_exe("ulimit -f 1 && " // run // shell_quote(dir // "/b.csv"), result)
+        call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
+            any_line_contains(result%err, "writing the results failed") .and. &
+            any_line_contains(result%err, dir // "/b.csv"), "ensemble results beyond a " // &
+            "file-size limit: exit " // int_str(result%exit_code) // ": " // first_error(result))
+        ! Samples of trajectory 2 going to a full device: no row for it; --resume completes.
+        call run_shell("ln -s /dev/full " // shell_quote(dir // "/samples/2.csv.part"), result)
+        call shell_with_exe(run // shell_quote(dir // "/c.csv") // " --samples " // &
+            shell_quote(dir // "/samples") // " --threads 1", result)
+        call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
+            any_line_contains(result%err, "trajectory 2: storing the samples"), &
+            "ensemble samples to a full device: exit " // int_str(result%exit_code) // ": " // &
+            first_error(result))
+        call read_lines(dir // "/c.csv", lines, ios)
+        call check(error, ios == 0 .and. .not. any_prefix(lines, "2,"), "no row for the " // &
+            "trajectory whose samples were lost")
+        call run_shell("rm " // shell_quote(dir // "/samples/2.csv.part"), result)
+        call shell_with_exe(run // shell_quote(dir // "/c.csv") // " --samples " // &
+            shell_quote(dir // "/samples") // " --resume", result)
+        call read_lines(dir // "/c.csv", lines, ios)
+        call check(error, result%exit_code == 0 .and. file_exists(dir // "/samples/2.csv") &
+            .and. any_prefix(lines, "2,"), "--resume completes the run: exit " // &
+            int_str(result%exit_code) // ": " // first_error(result))
+        if (allocated(error)) return
+        ! Each kind of figure file on a full device.
+        do k = 1, size(figure_files)
+            call run_shell("rm -rf " // shell_quote(dir // "/figures") // " && mkdir " // &
+                shell_quote(dir // "/figures") // " && ln -s /dev/full " // &
+                shell_quote(dir // "/figures/" // trim(figure_files(k))), result)
+            call shell_with_exe("EXE figures --quick --long-steps 200 --figure " // &
+                trim(figure_names(k)) // " --out " // shell_quote(dir // "/figures"), result)
+            call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
+                any_line_contains(result%err, trim(figure_files(k))), "figures " // &
+                trim(figure_names(k)) // " to a full device: exit " // &
+                int_str(result%exit_code) // ": " // first_error(result))
+        end do
+        if (allocated(error)) return
+        ! The bench's files: summary.md and performance.md (--summarize), scaling.csv,
+        ! long.csv and reference.csv on a full device.
+        call run_shell("rm -rf " // shell_quote(dir // "/bench") // " && mkdir " // &
+            shell_quote(dir // "/bench"), result)
+        call write_lines(dir // "/bench/bench.csv", [character(len=400) :: &
+            "system,method,precision,M,N,G,order,h,steps,error,energy_error," // &
+            "constraint_residual,seconds,seconds_per_step,newton_iterations," // &
+            "residual_evaluations,gradient_evaluations,hessian_evaluations," // &
+            "lu_factorizations,status,difference_from_plain,tolerance,compile_seconds", &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"])
+        call bench_fails("summary.md", "bench --summarize " // shell_quote(dir // "/bench"))
+        call bench_fails("performance.md", "bench --summarize " // shell_quote(dir // "/bench"))
+        call bench_fails("scaling.csv", "bench --scaling --quick --out " // &
+            shell_quote(dir // "/bench"))
+        call bench_fails("reference.csv", "bench --systems planar --Mmax 1 --order 2 " // &
+            "--no-per-step --budget 0.01 --out " // shell_quote(dir // "/bench"))
+        if (.not. wp_is_double) call bench_fails("long.csv", "bench --long --quick --out " // &
+            shell_quote(dir // "/bench"))
+    contains
+        logical function any_prefix(rows, prefix)
+            type(text_line_t), intent(in) :: rows(:)
+            character(len=*), intent(in) :: prefix
+            integer :: r
+            any_prefix = .false.
+            do r = 1, size(rows)
+                if (index(rows(r)%text, prefix) == 1) any_prefix = .true.
+            end do
+        end function any_prefix
+        !> `holosym ARGS` with DIR/bench/NAME a link to /dev/full fails naming NAME.
+        subroutine bench_fails(name, arguments)
+            character(len=*), intent(in) :: name, arguments
+            character(len=:), allocatable :: link
+            link = dir // "/bench/" // name
+            if (wp_is_double .and. name == "scaling.csv") link = dir // "/bench/scaling64.csv"
+            call run_shell("ln -sf /dev/full " // shell_quote(link), result)
+            call shell_with_exe("EXE " // arguments, result)
+            call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
+                any_line_contains(result%err, link) .and. &
+                any_line_contains(result%err, "No space left on device"), "bench with " // &
+                name // " on a full device: exit " // int_str(result%exit_code) // ": " // &
+                first_error(result))
+            call run_shell("rm -f " // shell_quote(link), result)
+        end subroutine bench_fails
+    end subroutine unwritable_files
+
+    !> Devices and binary files given as input (/dev/zero, /dev/full, a link to them) are
+    !! refused at once as not text, never read forever: bench --reference and
+    !! --summarize, ensemble --states and --resume of a results file.
+    subroutine device_inputs(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        character(len=:), allocatable :: dir
+        dir = absolute(scratch_path("devices"))
+        call run_shell("rm -rf " // shell_quote(dir) // " && mkdir -p " // shell_quote(dir) // &
+            " && ln -s /dev/zero " // shell_quote(dir // "/bench.csv"), result)
+        call expect_timed("EXE bench --reference /dev/zero --systems planar --out " // &
+            shell_quote(dir // "/out"), "not text")
+        call expect_timed("EXE bench --summarize " // shell_quote(dir), "not text")
+        call expect_timed("EXE ensemble --states /dev/zero --output " // &
+            shell_quote(dir // "/e.csv"), "not text")
+        call expect_timed("EXE ensemble --perturb 2 --output /dev/full --resume", "not text")
+    contains
+        subroutine expect_timed(line, text)
+            character(len=*), intent(in) :: line, text
+            call shell_with_exe("timeout 20 " // line, result)
+            call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
+                any_line_contains(result%err, text), line // ": exit " // &
+                int_str(result%exit_code) // " (124: still reading after 20 s): " // &
+                first_error(result))
+        end subroutine expect_timed
+    end subroutine device_inputs
+
     ! ------------------------------------------------------------------ 4
 
     !> Step counts T/h that overflow or round to zero are usage errors, in tables and in
@@ -268,6 +409,90 @@ contains
             // "exit " // int_str(result%exit_code))
     end subroutine no_shell
 
+    !> Paths with quotes, semicolons, `$(...)` and backquotes are used literally by
+    !! `ensemble --output/--samples`, `figures --out`, `bench --out` and `bench --heyoka`:
+    !! the directories and files get those names, heyoka's Python (here a script that
+    !! records its arguments) receives each argument as given, and nothing the names hold
+    !! is run.
+    subroutine no_shell_anywhere(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: lines(:)
+        character(len=:), allocatable :: base, dir, python, reference
+        character(len=*), parameter :: nasty = "/q'; touch PWNED; echo '/$(touch PWNED2)" // &
+            "/`touch PWNED3`;touch PWNED4"
+        integer :: ios, k
+        logical :: found_out, found_reference
+        base = absolute(scratch_path("no_shell"))
+        call run_shell("rm -rf " // shell_quote(base) // " && mkdir -p " // shell_quote(base), &
+                       result)
+        dir = base // nasty
+        ! ensemble: results, timing log and samples under the nasty directory.
+        call run_shell("mkdir -p " // shell_quote(dir), result)
+        call shell_with_exe("cd " // shell_quote(base) // " && EXE ensemble --system planar " &
+            // "--perturb 2 --T 1 --quiet --output " // shell_quote(dir // "/r.csv") // &
+            " --samples " // shell_quote(dir // "/samples x"), result)
+        call check(error, result%exit_code == 0, "ensemble with a nasty path: exit " // &
+            int_str(result%exit_code) // ": " // first_error(result))
+        call check(error, file_exists(dir // "/r.csv") .and. file_exists(dir // &
+            "/r.timing.csv") .and. file_exists(dir // "/samples x/2.csv"), &
+            "ensemble wrote its files under the literal names")
+        ! figures: a CSV of the library's trajectory writer and one of the tool's own.
+        call shell_with_exe("cd " // shell_quote(base) // " && EXE figures --quick " // &
+            "--figure fig1,fig5 --out " // shell_quote(dir // "/figures"), result)
+        call check(error, result%exit_code == 0, "figures with a nasty path: exit " // &
+            int_str(result%exit_code) // ": " // first_error(result))
+        call check(error, file_exists(dir // "/figures/fig1_pendulum.csv") .and. &
+            file_exists(dir // "/figures/fig5_constraints.csv"), "figures wrote under the " // &
+            "literal name")
+        ! bench --heyoka: a "Python" with a nasty name that records its arguments and fails.
+        python = base // "/py'; touch PWNED5; echo '"
+        call write_lines(python, [character(len=200) :: "#!/bin/sh", &
+            "printf '%s\n' ""$@"" > " // shell_quote(base // "/arguments.txt"), "exit 3"])
+        call run_shell("chmod +x " // shell_quote(python), result)
+        reference = base // "/ref; $(touch PWNED6).csv"
+        call write_lines(reference, [character(len=80) :: &
+            "planar,q0,1,8.41470984807896506652502321630298954E-0001", &
+            "planar,q0,2,-5.40302305868139717400936607442976558E-0001", &
+            "planar,p0,1,0", "planar,p0,2,0", "planar,q,1,8.4E-1", "planar,q,2,-5.4E-1", &
+            "planar,p,1,0.0E+0", "planar,p,2,0.0E+0"])
+        call shell_with_exe("cd " // shell_quote(base) // " && EXE bench --out " // &
+            shell_quote(dir // "/bench") // " --heyoka " // shell_quote(python) // &
+            " --reference " // shell_quote(reference) // " --systems planar --Mmax 1 " // &
+            "--order 2 --no-per-step --budget 0.01", result)
+        call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
+            any_line_contains(result%err, "the heyoka sweep failed (exit status 3)"), &
+            "bench --heyoka with a failing script: exit " // int_str(result%exit_code) // &
+            ": " // first_error(result))
+        call read_lines(base // "/arguments.txt", lines, ios)
+        call check(error, ios == 0, "the script ran and recorded its arguments")
+        if (allocated(error)) return
+        found_out = .false.
+        found_reference = .false.
+        do k = 1, size(lines) - 1
+            if (lines(k)%text == "--out") found_out = lines(k + 1)%text == dir // "/bench/" // &
+                merge("heyoka64.csv.part", "heyoka.csv.part  ", wp_is_double)
+            if (lines(k)%text == "--reference") found_reference = lines(k + 1)%text == reference
+        end do
+        call check(error, size(lines) > 0, "arguments recorded")
+        if (allocated(error)) return
+        call check(error, lines(1)%text == "tools/heyoka_bench.py" .and. found_out .and. &
+            found_reference, "the script got --out and --reference as given: " // &
+            lines(1)%text)
+        do k = 1, 6
+            call check(error, .not. (file_exists(base // "/PWNED" // trim(suffix(k))) .or. &
+                file_exists("PWNED" // trim(suffix(k)))), "a shell ran a name (PWNED" // &
+                trim(suffix(k)) // ")")
+        end do
+    contains
+        pure function suffix(k) result(text)
+            integer, intent(in) :: k
+            character(len=1) :: text
+            text = " "
+            if (k > 1) write (text, '(i1)') k
+        end function suffix
+    end subroutine no_shell_anywhere
+
     ! ------------------------------------------------------------------ 6
 
     !> bench --reference rejects NaN, Inf, values out of range, an index given twice, one
@@ -277,6 +502,10 @@ contains
         character(len=*), parameter :: good(*) = [character(len=40) :: &
             "# reference", "planar,q,1,8.4E-1", "planar,q,2,-5.4E-1", "planar,p,1,0.0E+0", &
             "planar,p,2,0.0E+0"]
+        character(len=*), parameter :: start(*) = [character(len=64) :: &
+            "planar,q0,1,8.41470984807896506652502321630298954E-0001", &
+            "planar,q0,2,-5.40302305868139717400936607442976558E-0001", &
+            "planar,p0,1,0.0E+0", "planar,p0,2,0.0E+0"]
         call one([character(len=40) :: good(1:2), "planar,q,2,NaN", good(4:5)], &
             "not a finite number")
         call one([character(len=40) :: good(1:2), "planar,q,2,Inf", good(4:5)], &
@@ -289,17 +518,32 @@ contains
         call one([character(len=40) :: good, "planar,q,3,1.0"], "index must be in 1..2")
         call one([character(len=40) :: good, "planar,x,1,1.0"], "q or p")
         call one([character(len=40) :: good, "planar,q,1"], "4 comma-separated fields")
+        ! The start q0, p0: optional as a pair, every index once, finite, the system's own.
+        call one([character(len=64) :: good, start(1:3), "planar,q0,1,0.5"], "given twice")
+        call one([character(len=64) :: good, start(1:3), "planar,p0,2,NaN"], &
+            "not a finite number")
+        call one([character(len=64) :: good, start(2:4), "planar,q0,1,0.5"], &
+            "a reference of another start")
+        call one([character(len=64) :: good, start(1:2)], "lacks p0(1)")
+        call one([character(len=64) :: good, start(1:3)], "lacks p0(2)")
+        call one([character(len=64) :: good, "planar,q0,1,8.4E-1" // achar(0)], "not text")
+        ! heyoka starts from q0, p0: required with --heyoka.
+        call one([character(len=40) :: good], "lacks q0(1) of system planar (--heyoka", &
+                 "python3")
 
     contains
 
-        subroutine one(lines, text)
+        subroutine one(lines, text, python)
             character(len=*), intent(in) :: lines(:)
             character(len=*), intent(in) :: text
-            character(len=512) :: args(8), path, fragments(2)
+            character(len=*), intent(in), optional :: python
+            character(len=512) :: path, fragments(2)
+            character(len=512), allocatable :: args(:)
             path = scratch_path("reference.csv")
             call write_lines(trim(path), lines)
             args = [character(len=512) :: "bench", "--out", scratch_path("bench_reference"), &
                 "--reference", path, "--systems", "planar", "--no-per-step"]
+            if (present(python)) args = [character(len=512) :: args, "--heyoka", python]
             fragments = [character(len=512) :: path, text]
             call expect(error, args, exit_failure, fragments)
         end subroutine one
@@ -407,7 +651,9 @@ contains
             "/nonexistent/dir/x", "x'; touch PWNED; echo '", "$(touch PWNED)", "/proc/x/y", &
             "`touch PWNED`", "/dev/null/x", "a b/../../../../../../dev/full"]
         character(len=*), parameter :: commands(*) = [character(len=10) :: "simulate", &
-            "tables", "bench", "extremes", "help", "frob", ""]
+            "tables", "bench", "extremes", "ensemble", "figures", "help", "frob", ""]
+        character(len=*), parameter :: systems(*) = [character(len=10) :: "chain", &
+            "planar", "pendulum", "linkage", "double", "dumbbell", "magnetic", "generic"]
         ! Whole argument vectors that run (briefly) into a failure, or into a defect of the
         ! past: allocations sized by huge orders, overflowing step counts, unbounded parts.
         character(len=*), parameter :: runs(*) = [character(len=72) :: &
@@ -428,7 +674,32 @@ contains
             "extremes --quick --part tiny --steps 2", "extremes --quick --part stiff --steps 1", &
             "bench --summarize /dev/full", "bench --summarize /nonexistent", &
             "bench --out /dev/full/x --systems planar --Mmax 1 --order 2", &
-            "bench --out /proc/x --reference /nonexistent --systems planar"]
+            "bench --out /proc/x --reference /nonexistent --systems planar", &
+            "bench --scaling --quick --out /dev/full/x", "bench --long --quick --out /proc/x", &
+            "bench --scaling-point 0", "bench --scaling-point 100001 --general", &
+            "bench --heyoka /nonexistent/python --reference /dev/null --systems planar", &
+            "bench --reference /dev/zero --systems planar", "bench --summarize /dev/zero", &
+            "simulate --system chain --links 100001", "simulate --system chain --links 0", &
+            "simulate --system chain --links 3 --steps 2", "simulate --links 3", &
+            "simulate --system chain --links 2 --h 1e30 --steps 1", &
+            "simulate --system chain --links 4 --plain --steps 1", &
+            "ensemble --perturb 3 --T 1 --output /dev/full", &
+            "ensemble --perturb 3 --T 1 --output /dev/full --resume", &
+            "ensemble --states /dev/zero --output s.csv", &
+            "ensemble --perturb 2 --T 1e4000 --h 1e-4000 --output z.csv", &
+            "ensemble --perturb 2 --T 1e-30 --output z.csv", &
+            "ensemble --perturb 2 --M 2147483647 --output z.csv", &
+            "ensemble --perturb 2 --N 2147483647 --output z.csv", &
+            "ensemble --perturb 2147483647 --output z.csv", "ensemble --perturb 2 --M 5 --G 3", &
+            "ensemble --perturb 2 --scale 1e4000 --output z.csv", &
+            "ensemble --perturb 2 --threads 100000 --output z.csv", &
+            "ensemble --perturb 2 --T 1 --samples /dev/null/x --output w.csv", &
+            "ensemble --perturb 2 --T 1 --output /proc/x/y.csv", &
+            "ensemble --perturb 2 --T 1 --output t.csv --timing /dev/full", &
+            "figures --quick --figure fig5 --out /dev/full/x", &
+            "figures --quick --figure convergence --out /proc/x", &
+            "figures --long-steps 2147483647 --figure long --out f", "figures --figure x", &
+            "figures --out"]
         character(len=:), allocatable :: dir, line
         type(command_result_t) :: result
         integer(int64) :: state
@@ -492,26 +763,42 @@ contains
             select case (command)
             case ("simulate")
                 name = pick_name([character(len=12) :: "--M", "--N", "--G", "--h", "--T", &
-                    "--steps", "--every", "--system", "--output", "--frob"])
+                    "--steps", "--every", "--system", "--output", "--frob", "--links", &
+                    "--plain"])
                 path_option = name == "--output"
             case ("tables")
                 name = pick_name([character(len=12) :: "--T", "--h", "--Mmax", "--Nmax", &
                     "--system", "--csv", "--T"])
                 path_option = name == "--csv"
             case ("bench")
-                name = pick_name([character(len=12) :: "--Mmax", "--order", "--budget", &
-                    "--systems", "--out", "--reference", "--summarize", "--Mmax"])
+                name = pick_name([character(len=15) :: "--Mmax", "--order", "--budget", &
+                    "--systems", "--out", "--reference", "--summarize", "--Mmax", &
+                    "--scaling", "--long", "--quick", "--heyoka", "--scaling-point", &
+                    "--general", "--no-per-step"])
                 path_option = any(name == [character(len=12) :: "--out", "--reference", &
-                    "--summarize"])
+                    "--summarize", "--heyoka"])
             case ("extremes")
                 name = pick_name([character(len=12) :: "--steps", "--max-order", "--part", &
                     "--steps"])
+            case ("ensemble")
+                name = pick_name([character(len=12) :: "--system", "--M", "--N", "--G", &
+                    "--h", "--T", "--states", "--perturb", "--scale", "--seed", "--output", &
+                    "--timing", "--samples", "--every", "--threads", "--project", "--resume", &
+                    "--quiet"])
+                path_option = any(name == [character(len=12) :: "--states", "--output", &
+                    "--timing", "--samples"])
+            case ("figures")
+                name = pick_name([character(len=12) :: "--out", "--figure", "--long-steps", &
+                    "--quick", "--out"])
+                path_option = name == "--out"
             case default
                 name = pick_name([character(len=12) :: "--help", "-h", "--x", "simulate", &
                     "--steps"])
             end select
             if (path_option) then
                 value = trim(paths(1 + next(size(paths))))
+            else if (name == "--system" .and. next(2) == 0) then
+                value = trim(systems(1 + next(size(systems))))
             else if (any(name == [character(len=12) :: "--M", "--N", "--G", "--Mmax", &
                      "--Nmax", "--max-order", "--order"]) .and. next(2) == 0) then
                 value = trim(orders(1 + next(size(orders))))
@@ -549,6 +836,10 @@ contains
                 text = " --order 1"
             case ("extremes")
                 text = " --max-order 0"
+            case ("ensemble")
+                text = " --threads 0"
+            case ("figures")
+                text = " --long-steps 1"
             case default
                 text = ""
             end select
