@@ -163,6 +163,34 @@ contains
             [character(len=32) :: "--budget", "(0, 3600]"])
         call expect(error, words("extremes", "--max-order", "16"), exit_usage, &
             [character(len=32) :: "--max-order", "1..15"])
+        call expect(error, words("simulate", "--system", "chain", "--links", "100001"), &
+            exit_usage, [character(len=32) :: "--links", "1..100000"])
+        call expect(error, words("ensemble", "--perturb", "1000001", "--output", "x.csv"), &
+            exit_usage, [character(len=32) :: "--perturb", "1..1000000"])
+        call expect(error, words("ensemble", "--perturb", "2", "--M", "2147483647", &
+            "--output", "x.csv"), exit_usage, [character(len=32) :: "--M", "1..30"], &
+            [character(len=32) :: "-2147483648", "G ="])
+        call expect(error, words("ensemble", "--perturb", "2", "--threads", "100000", &
+            "--output", "x.csv"), exit_usage, [character(len=32) :: "--threads", "1..256"])
+        call expect(error, words("ensemble", "--perturb", "2", "--T", "1e4000", "--h", &
+            "1e-4000", "--output", "x.csv"), exit_usage, [character(len=32) :: "T/h"])
+        call expect(error, words("figures", "--long-steps", "2147483647", "--out", "f"), &
+            exit_usage, [character(len=32) :: "--long-steps", "100..100000000"])
+        call expect(error, words("bench", "--scaling-point", "100001"), exit_usage, &
+            [character(len=32) :: "--scaling-point", "1..100000"])
+        call large_chain(error)
+    contains
+        !> A chain of 5000 links (Phi would be 5000 x 10^4 dense): one step, no crash.
+        subroutine large_chain(error)
+            type(test_error_t), allocatable, intent(inout) :: error
+            type(command_result_t) :: result
+            if (allocated(error)) return
+            call shell_with_exe("timeout 60 EXE simulate --system chain --links 5000 " // &
+                "--steps 1 > /dev/null", result)
+            call check(error, result%exit_code == 0 .and. clean(result), "simulate " // &
+                "--system chain --links 5000 --steps 1: exit " // int_str(result%exit_code) &
+                // ": " // first_error(result))
+        end subroutine large_chain
     end subroutine size_ranges
 
     ! ------------------------------------------------------------------ 3
