@@ -287,6 +287,13 @@ contains
         call check(error, result%exit_code == 0 .and. file_exists(dir // "/samples/2.csv") &
             .and. any_prefix(lines, "2,"), "--resume completes the run: exit " // &
             int_str(result%exit_code) // ": " // first_error(result))
+        ! Resuming a complete run whose timing log is gone starts a new log.
+        call run_shell("rm " // shell_quote(dir // "/c.timing.csv"), result)
+        call shell_with_exe(run // shell_quote(dir // "/c.csv") // " --samples " // &
+            shell_quote(dir // "/samples") // " --resume", result)
+        call check(error, result%exit_code == 0 .and. file_exists(dir // "/c.timing.csv"), &
+            "--resume without a timing log: exit " // int_str(result%exit_code) // ": " // &
+            first_error(result))
         if (allocated(error)) return
         ! Each kind of figure file on a full device.
         do k = 1, size(figure_files)

@@ -729,7 +729,7 @@ contains
         if (len(timing_path) > 0) then
             inquire (file=timing_path, exist=exists)
             if (.not. exists) then
-                deallocate (first_lines)
+                if (allocated(first_lines)) deallocate (first_lines)
                 allocate (first_lines(1))
                 first_lines(1)%text = "id,cpu_seconds,wall_seconds"
                 call write_checked(timing_path, first_lines, "new", message)
