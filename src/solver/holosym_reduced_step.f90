@@ -216,11 +216,22 @@ contains
             do iter = 1, max_iterations
                 report%iterations = report%iterations + 1
                 ! The residual at x; new factors, when due, from the same evaluation.
+                ! An iterate or residual beyond the range of real64 (h far beyond the
+                ! system's scale) cannot be lowered: the iteration has diverged.
                 if (lowered) then
+                    if (.not. fits_real64(self%x)) then
+                        call beyond_real64("iterate", status)
+                        return
+                    end if
                     self%x_low = real(self%x, dp)
                     call self%scheme%residual_lowered(self%x_low, self%f_low, status)
                 else
                     call self%scheme%residual(self%x, self%f, status)
+                    if (.not. status%ok()) return
+                    if (.not. fits_real64(self%f)) then
+                        call beyond_real64("residual", status)
+                        return
+                    end if
                     self%f_low = real(self%f, dp)
                 end if
                 if (.not. status%ok()) return
@@ -298,6 +309,15 @@ contains
                 "after " // int_str(max_iterations) // " iterations")
         end subroutine newton
 
+        !> HOLOSYM_NEWTON_DIVERGED: the `what` of the iteration left the range of real64.
+        subroutine beyond_real64(what, status)
+            character(len=*), intent(in) :: what
+            type(holosym_status_t), intent(out) :: status
+            call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton diverged: the " // &
+                what // " left the range of real64 at iteration " // &
+                int_str(report%iterations))
+        end subroutine beyond_real64
+
         !> The first working-precision corrections: the first is accepted when a known
         !! contraction predicts the tolerance met: that of the real64 phase when its factors
         !! are kept, or `learned_rate` for factors renewed at its end (the second correction
@@ -358,6 +378,22 @@ contains
         end subroutine refactor
 
     end subroutine step_solve
+
+    !> Whether every finite entry of `values` is within the range of real64, so that
+    !! converting it cannot overflow (NaN and Inf convert as they are; they are not
+    !! compared, which would raise 'invalid').
+    pure logical function fits_real64(values) result(fits)
+        real(wp), intent(in) :: values(:)
+        integer :: k
+        fits = .true.
+        do k = 1, size(values)
+            if (.not. is_finite(values(k))) cycle
+            if (abs(values(k)) > huge(1.0_dp)) then
+                fits = .false.
+                return
+            end if
+        end do
+    end function fits_real64
 
     !> Make the last solution (`x`, from q with step h) the previous step of the next solve.
     subroutine step_accept(self, q, h)
