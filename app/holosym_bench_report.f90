@@ -266,12 +266,16 @@ contains
             links = nint(number(table, "links", r))
             if (field(table, "precision", r) /= precision .or. field(table, "path", r) /= path &
                 .or. links < 8 .or. links > 256 .or. nint(number(table, "status", r)) /= 0) cycle
+            ! A time of 0 (below the clock's resolution) has no logarithm.
+            if (.not. number(table, "seconds_per_step", r) > 0) cycle
             count = count + 1
             x(count) = log(real(links, real64))
             y(count) = log(number(table, "seconds_per_step", r))
         end do
         slope = -1
         if (count < 2) return
+        ! At least two different K (a repeated point gives no slope).
+        if (.not. sum((x(:count) - sum(x(:count)) / count)**2) > 0) return
         slope = sum((x(:count) - sum(x(:count)) / count) * (y(:count) - sum(y(:count)) / count)) &
             / sum((x(:count) - sum(x(:count)) / count)**2)
     end function fitted_exponent
@@ -301,12 +305,15 @@ contains
                 "makes it.")
             return
         end if
-        if (.not. have_quad) quad = double
-        if (.not. have_double) double = quad
-        both%names = quad%names
-        both%cells = reshape([character(len=field_length) :: quad%cells, double%cells], [ &
-            size(quad%names), &
-            size(quad%cells, 2) + size(double%cells, 2)])
+        if (have_quad .and. have_double) then
+            both%names = quad%names
+            both%cells = reshape([character(len=field_length) :: quad%cells, double%cells], [ &
+                size(quad%names), size(quad%cells, 2) + size(double%cells, 2)])
+        else if (have_quad) then
+            both = quad
+        else
+            both = double
+        end if
         call unit%line("n = 2K, m = K, (M, N, G) = (4, 3, 5), h = 0.01 (command: " // &
             "`holosym bench --scaling`, in the real128 and real64 builds). Seconds per step; " // &
             "the reduced step is the default, the general path is `structured = .false.` " // &

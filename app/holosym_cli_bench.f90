@@ -1093,9 +1093,12 @@ contains
             call make_directories(dir, status)
             if (status%ok()) call run_bench(options, err_unit, rows, steps_rows, status)
             csv_name = merge("bench64.csv", "bench.csv  ", wp_is_double)
-            if (status%ok()) call write_bench_csv(dir // "/" // trim(csv_name), rows, status)
-            if (status%ok() .and. size(steps_rows) > 0) call write_bench_csv(dir // &
-                "/" // merge("steps64.csv", "steps.csv  ", wp_is_double), steps_rows, status)
+            if (status%ok()) then
+                call write_bench_csv(dir // "/" // trim(csv_name), rows, status)
+                if (status%ok() .and. size(steps_rows) > 0) call write_bench_csv(dir // &
+                    "/" // merge("steps64.csv", "steps.csv  ", wp_is_double), steps_rows, &
+                    status)
+            end if
         end if
         allocate (all_rows(0))
         if (allocated(steps_rows)) deallocate (steps_rows)
