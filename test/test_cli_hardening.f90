@@ -172,8 +172,8 @@ contains
             [character(len=32) :: "-2147483648", "G ="])
         call expect(error, words("ensemble", "--perturb", "2", "--threads", "100000", &
             "--output", "x.csv"), exit_usage, [character(len=32) :: "--threads", "1..256"])
-        call expect(error, words("ensemble", "--perturb", "2", "--T", "1e4000", "--h", &
-            "1e-4000", "--output", "x.csv"), exit_usage, [character(len=32) :: "T/h"])
+        call expect(error, words("ensemble", "--perturb", "2", "--T", "1e300", "--h", &
+            "1e-300", "--output", "x.csv"), exit_usage, [character(len=32) :: "T/h"])
         call expect(error, words("figures", "--long-steps", "2147483647", "--out", "f"), &
             exit_usage, [character(len=32) :: "--long-steps", "100..100000000"])
         call expect(error, words("bench", "--scaling-point", "100001"), exit_usage, &

@@ -6,6 +6,7 @@
 !! overwritten).
 module test_ensemble
     use, intrinsic :: iso_fortran_env, only: int64
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym, only: wp, spherical_pendulum, spring_linkage, constrained_integrator, &
         holosym_status_t, status_code_name, ensemble_settings_t, ensemble_states_t, &
         ensemble_result_t, ensemble_sink, run_ensemble, perturbed_states, openmp_farm, &
@@ -221,8 +222,7 @@ contains
         call run_ensemble(sys, bad, settings, results, status)
         call expect(HOLOSYM_INVALID_ARGUMENT, "duplicate id 2", "duplicate ids")
         bad = states
-        nan = 0
-        nan = nan / nan
+        nan = ieee_value(nan, ieee_quiet_nan)
         bad%p(2, 4) = nan
         call run_ensemble(sys, bad, settings, results, status)
         call expect(HOLOSYM_INVALID_ARGUMENT, "id 4", "NaN")
