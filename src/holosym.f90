@@ -30,7 +30,9 @@
 !!   [[newton_workspace_t]], `LINEAR_SOLVER_NATIVE`, `LINEAR_SOLVER_MIXED`: Newton's method
 !!   on any square system.
 !! - [[discrete_scheme]], [[scheme_counters_t]], [[unknown_count]]: the general scheme's
-!!   equations of one step and their size for (M, N, G, n, m); `JACOBIAN_ASSEMBLED`,
+!!   equations of one step and their size for (M, N, G, n, m); `max_order_m`,
+!!   `max_order_n`, `max_gauss_points`: the limits of M, N and G (docs/status-codes.md);
+!!   `JACOBIAN_ASSEMBLED`,
 !!   `JACOBIAN_RESIDUAL_DIFFERENCES`, `HESSIANS_USER`, `HESSIANS_DIFFERENCES`: its modes.
 !! - [[project_to_manifold]], [[projection_report_t]],
 !!   `projection_max_iterations_default`: moves a nearby state onto the manifold.
@@ -65,8 +67,9 @@
 !!   `HOLOSYM_OFF_MANIFOLD`, `HOLOSYM_USER_ABORT`, `HOLOSYM_NOT_INITIALIZED`,
 !!   `HOLOSYM_INVALID_ARGUMENT`, `HOLOSYM_SINGULAR_MATRIX`, `HOLOSYM_NEWTON_NOT_CONVERGED`,
 !!   `HOLOSYM_NEWTON_DIVERGED`, `HOLOSYM_NONFINITE_VALUE`,
-!!   `HOLOSYM_RANK_DEFICIENT_CONSTRAINTS`: the status codes (0 success, negative invalid
-!!   input, positive numerical failure; see [[holosym_status]]).
+!!   `HOLOSYM_RANK_DEFICIENT_CONSTRAINTS`, `HOLOSYM_STEP_TOO_LARGE`,
+!!   `HOLOSYM_STEP_TOO_SMALL`: the status codes (0 success, negative invalid input,
+!!   positive numerical failure; see [[holosym_status]] and docs/status-codes.md).
 module holosym
     use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_release, only: holosym_version
