@@ -514,6 +514,28 @@ contains
         call check(error, lines(1)%text == "tools/heyoka_bench.py" .and. found_out .and. &
             found_reference, "the script got --out and --reference as given: " // &
             lines(1)%text)
+        ! bench --long --heyoka (real128 only): the long runs' script gets its paths too.
+        if (.not. wp_is_double) then
+            call run_shell("rm -f " // shell_quote(base // "/arguments.txt"), result)
+            call shell_with_exe("cd " // shell_quote(base) // " && EXE bench --long " // &
+                "--quick --out " // shell_quote(dir // "/long") // " --heyoka " // &
+                shell_quote(python), result)
+            call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
+                any_line_contains(result%err, "heyoka long runs failed (exit status 3)"), &
+                "bench --long --heyoka with a failing script: exit " // &
+                int_str(result%exit_code) // ": " // first_error(result))
+            call read_lines(base // "/arguments.txt", lines, ios)
+            found_out = .false.
+            found_reference = .false.
+            do k = 1, size(lines) - 1
+                if (lines(k)%text == "--out") found_out = lines(k + 1)%text == dir // &
+                    "/long/long.csv.heyoka"
+                if (lines(k)%text == "--reference") found_reference = lines(k + 1)%text == &
+                    dir // "/long/long_reference.csv"
+            end do
+            call check(error, ios == 0 .and. found_out .and. found_reference, &
+                "the long runs' script got --out and --reference as given")
+        end if
         do k = 1, 6
             call check(error, .not. (file_exists(base // "/PWNED" // trim(suffix(k))) .or. &
                 file_exists("PWNED" // trim(suffix(k)))), "a shell ran a name (PWNED" // &
