@@ -18,7 +18,7 @@
 !! holosym_posix.c.
 module holosym_output
     use, intrinsic :: iso_c_binding, only: c_int, c_long, c_char, c_null_char
-    use, intrinsic :: iso_fortran_env, only: error_unit
+    use, intrinsic :: iso_fortran_env, only: error_unit, int64
     use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     implicit none
     private
@@ -352,67 +352,100 @@ contains
     !! then empty): the file cannot be opened or read, a line holds a control character
     !! other than a tab or a carriage return (a NUL from a device such as /dev/zero or
     !! /dev/full, a binary file), or a line is longer than `max_line_length`.
+    !!
+    !! The bytes are read with stream access and checked as they come: a record-oriented
+    !! read would first look for the end of a line that a device never ends. A regular
+    !! file is read in blocks of its known size; anything else (a device, a pipe) byte by
+    !! byte, so that the first bad byte stops the reading.
     subroutine read_text_file(path, lines, status)
         character(len=*), intent(in) :: path                 !! the file
         type(text_t), allocatable, intent(out) :: lines(:)   !! its lines
         type(holosym_status_t), intent(out) :: status        !! outcome
-        character(len=4096) :: chunk
+        integer, parameter :: block = 65536
+        character(len=block) :: chunk
         character(len=256) :: message
         character(len=:), allocatable :: line
         type(text_t), allocatable :: grown(:)
-        integer :: unit, ios, got, count, bad
+        integer(int64) :: file_size, done
+        integer :: unit, ios, count, n
+        logical :: exists
         status%code = HOLOSYM_SUCCESS
         status%message = ""
         allocate (lines(0))
-        open (newunit=unit, file=path, status="old", action="read", access="sequential", &
-              form="formatted", iostat=ios, iomsg=message)
+        file_size = -1
+        inquire (file=path, exist=exists, size=file_size)
+        open (newunit=unit, file=path, status="old", action="read", access="stream", &
+              form="unformatted", iostat=ios, iomsg=message)
         if (ios /= 0) then
             call failed("cannot read '" // path // "': " // trim(message))
             return
         end if
         allocate (grown(64))
         count = 0
+        done = 0
+        line = ""
         do
-            line = ""
-            do
-                read (unit, '(a)', advance="no", iostat=ios, iomsg=message, size=got) chunk
-                bad = verify_text(chunk(:got))
-                if (bad > 0) then
-                    call failed(path // ": line " // int_text(count + 1) // ": not text " &
-                        // "(control character " // int_text(iachar(chunk(bad:bad))) // &
-                        " at column " // int_text(len(line) + bad) // ")")
-                    close (unit)
-                    return
-                end if
-                if (len(line) + got > max_line_length) then
-                    call failed(path // ": line " // int_text(count + 1) // ": longer " // &
-                        "than " // int_text(max_line_length) // " characters")
-                    close (unit)
-                    return
-                end if
-                line = line // chunk(:got)
-                if (ios /= 0) exit
-            end do
-            if (is_iostat_end(ios)) then
-                if (len(line) > 0) call append()
-                exit
+            if (file_size > 0) then
+                if (done >= file_size) exit
+                n = int(min(int(block, int64), file_size - done))
+            else
+                n = 1
             end if
-            if (.not. is_iostat_eor(ios)) then
-                call failed(path // ": line " // int_text(count + 1) // ": cannot read: " &
-                    // trim(message))
+            read (unit, iostat=ios, iomsg=message) chunk(:n)
+            if (is_iostat_end(ios)) exit
+            if (ios /= 0) then
+                call failed("cannot read '" // path // "': line " // int_text(count + 1) // &
+                    ": " // trim(message))
                 close (unit)
                 return
             end if
-            call append()
+            done = done + n
+            call take(chunk(:n))
+            if (.not. status%ok()) then
+                close (unit)
+                return
+            end if
         end do
         close (unit)
+        if (len(line) > 0) call append()
         lines = grown(:count)
     contains
+        !> Split bytes into lines, checking each piece.
+        subroutine take(text)
+            character(len=*), intent(in) :: text
+            integer :: first, end_of_line, last, bad
+            first = 1
+            do while (first <= len(text))
+                end_of_line = index(text(first:), new_line("a"))
+                last = len(text)
+                if (end_of_line > 0) last = first + end_of_line - 2
+                bad = verify_text(text(first:last))
+                if (bad > 0) then
+                    call failed(path // ": line " // int_text(count + 1) // ": not text " // &
+                        "(control character " // int_text(iachar(text(first + bad - 1: &
+                        first + bad - 1))) // " at column " // int_text(len(line) + bad) // ")")
+                    return
+                end if
+                if (len(line) + last - first + 1 > max_line_length) then
+                    call failed(path // ": line " // int_text(count + 1) // ": longer " // &
+                        "than " // int_text(max_line_length) // " characters")
+                    return
+                end if
+                line = line // text(first:last)
+                if (end_of_line == 0) exit
+                call append()
+                line = ""
+                first = last + 2
+            end do
+        end subroutine take
         subroutine append()
             type(text_t), allocatable :: larger(:)
+            integer :: k
             if (count == size(grown)) then
                 allocate (larger(2 * size(grown)))
-                larger(:count) = grown(:count)
+                do k = 1, count
+                    call move_alloc(grown(k)%text, larger(k)%text)
+                end do
                 call move_alloc(larger, grown)
             end if
             count = count + 1

@@ -368,64 +368,92 @@ contains
 
     !> Every line of a text file, up to `max_line_length` characters. A control character
     !! other than a tab or a carriage return (as devices like /dev/zero give), a longer
-    !! line or a read error gives ios /= 0 and a message naming the line.
+    !! line or a read error gives ios /= 0 and a message naming the line. The bytes are
+    !! read with stream access and checked as they come (a record-oriented read would
+    !! first look for the end of a line that a device never ends): a regular file in
+    !! blocks of its known size, anything else byte by byte.
     subroutine read_text_lines(path, lines, ios, message)
         character(len=*), intent(in) :: path
         type(csv_text_t), allocatable, intent(out) :: lines(:)
         integer, intent(out) :: ios
         character(len=:), allocatable, intent(out) :: message
-        character(len=4096) :: chunk
+        integer, parameter :: block = 65536
+        character(len=block) :: chunk
         character(len=256) :: io_message
         character(len=:), allocatable :: line
         type(csv_text_t), allocatable :: kept(:)
-        integer :: unit, got, count
+        integer(int64) :: file_size, done
+        integer :: unit, count, n
+        logical :: exists
         allocate (lines(0), kept(64))
         count = 0
         message = ""
-        open (newunit=unit, file=path, status="old", action="read", iostat=ios, &
-              iomsg=io_message)
+        file_size = -1
+        inquire (file=path, exist=exists, size=file_size)
+        open (newunit=unit, file=path, status="old", action="read", access="stream", &
+              form="unformatted", iostat=ios, iomsg=io_message)
         if (ios /= 0) then
             message = trim(io_message)
             return
         end if
+        done = 0
+        line = ""
         do
-            line = ""
-            do
-                read (unit, '(a)', advance="no", iostat=ios, size=got) chunk
-                if (.not. is_text(chunk(:got))) then
-                    message = "line " // int_str(count + 1) // " is not text (a " // &
-                        "control character)"
-                    ios = 1
-                    close (unit)
-                    return
-                end if
-                if (len(line) + got > max_line_length) then
-                    message = "line " // int_str(count + 1) // " is longer than " // &
-                        int_str(max_line_length) // " characters"
-                    ios = 1
-                    close (unit)
-                    return
-                end if
-                line = line // chunk(:got)
-                if (ios /= 0) exit
-            end do
-            if (is_iostat_end(ios)) then
-                ! A last line without its end of line (a write cut short) is kept.
-                if (len(line) > 0) call keep()
-                exit
+            if (file_size > 0) then
+                if (done >= file_size) exit
+                n = int(min(int(block, int64), file_size - done))
+            else
+                n = 1
             end if
-            if (.not. is_iostat_eor(ios)) then
-                message = "read error"
+            read (unit, iostat=ios, iomsg=io_message) chunk(:n)
+            if (is_iostat_end(ios)) exit
+            if (ios /= 0) then
+                message = "line " // int_str(count + 1) // ": " // trim(io_message)
                 close (unit)
                 return
             end if
-            call keep()
+            done = done + n
+            call take(chunk(:n))
+            if (ios /= 0) then
+                close (unit)
+                return
+            end if
         end do
         ios = 0
         close (unit)
+        ! A last line without its end of line (a write cut short) is kept.
+        if (len(line) > 0) call keep()
         call move_alloc(kept, lines)
         lines = lines(:count)
     contains
+        !> Split bytes into lines, checking each piece; ios = 1 and `message` on a fault.
+        subroutine take(text)
+            character(len=*), intent(in) :: text
+            integer :: first, end_of_line, last
+            first = 1
+            do while (first <= len(text))
+                end_of_line = index(text(first:), new_line("a"))
+                last = len(text)
+                if (end_of_line > 0) last = first + end_of_line - 2
+                if (.not. is_text(text(first:last))) then
+                    message = "line " // int_str(count + 1) // " is not text (a " // &
+                        "control character)"
+                    ios = 1
+                    return
+                end if
+                if (len(line) + last - first + 1 > max_line_length) then
+                    message = "line " // int_str(count + 1) // " is longer than " // &
+                        int_str(max_line_length) // " characters"
+                    ios = 1
+                    return
+                end if
+                line = line // text(first:last)
+                if (end_of_line == 0) exit
+                call keep()
+                line = ""
+                first = last + 2
+            end do
+        end subroutine take
         subroutine keep()
             type(csv_text_t), allocatable :: larger(:)
             integer :: k
@@ -437,7 +465,7 @@ contains
                 call move_alloc(larger, kept)
             end if
             count = count + 1
-            call move_alloc(line, kept(count)%text)
+            kept(count)%text = line
         end subroutine keep
     end subroutine read_text_lines
 
