@@ -63,6 +63,8 @@ PREFIX ?= /usr/local
 # Fortran modules are installed under $(PREFIX)/$(MODULE_DIR).
 MODULE_DIR ?= include/holosym
 FLANG ?= flang-new-19
+# C compiler of the tool's POSIX services in the flang build (fpm would pick clang).
+FLANG_CC ?= gcc
 PYTHON ?= python3
 DOCS_VENV ?= build/venv-docs
 CMAKE_DIR ?= build/cmake
@@ -314,7 +316,7 @@ flang-deps:
 # flang-19 builds and tests the real64 library (its runtime has no REAL(16) math, so the
 # real128 build cannot link); the real128 library is compiled too, to keep it building.
 test-flang: deps include-digest flang-deps
-	$(FPM) test --compiler $(FLANG) $(REAL64_FLAGS)
+	$(FPM) test --compiler $(FLANG) --c-compiler $(FLANG_CC) $(REAL64_FLAGS)
 	cmake -S . -B build/flang-real128 -DCMAKE_Fortran_COMPILER=$(FLANG) \
 		-DCMAKE_BUILD_TYPE=Release -DHOLOSYM_BUILD_TESTS=OFF -DHOLOSYM_BUILD_APP=OFF \
 		-DHOLOSYM_BUILD_EXAMPLES=OFF

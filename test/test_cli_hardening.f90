@@ -229,7 +229,9 @@ contains
         call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
             any_line_contains(result%err, "File too large"), "a file-size limit: exit " // &
             int_str(result%exit_code) // ": " // first_error(result))
-        call shell_with_exe("ulimit -f 1 && EXE tables --quick --Mmax 1 --Nmax 1 --csv " // &
+        ! 2 blocks: 1 KiB in sh's units (LLVM's OpenMP runtime needs 1 KiB of shared memory
+        ! file to start), 2 KiB in bash's; table2.csv has 2150 bytes.
+        call shell_with_exe("ulimit -f 2 && EXE tables --quick --Mmax 1 --Nmax 1 --csv " // &
             shell_quote(scratch_path("limited_tables")), result)
         call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
             any_line_contains(result%err, "File too large"), "tables --csv, size limit: exit " &
@@ -263,8 +265,10 @@ contains
             any_line_contains(result%err, "timing log") .and. &
             any_line_contains(result%err, "'/dev/full'"), "ensemble --timing /dev/full: " // &
             "exit " // int_str(result%exit_code) // ": " // first_error(result))
-        ! Results beyond a file-size limit of 1 KiB (the header and one row fit).
-        call shell_with_exe("ulimit -f 1 && " // run // shell_quote(dir // "/b.csv"), result)
+        ! Results beyond a file-size limit of 1 or 2 KiB (sh's or bash's blocks): 8 rows of
+        ! about 700 bytes do not fit.
+        call shell_with_exe("ulimit -f 2 && " // run // shell_quote(dir // "/b.csv") // &
+            " --perturb 8", result)
         call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
             any_line_contains(result%err, "writing the results failed") .and. &
             any_line_contains(result%err, dir // "/b.csv"), "ensemble results beyond a " // &

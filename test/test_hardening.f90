@@ -86,6 +86,12 @@ module test_hardening
 
 contains
 
+    !> A constrained_integrator with its default settings (a structure constructor with
+    !! no values is refused by compilers for components without defaults, e.g. flang).
+    function new_integrator() result(integ)
+        type(constrained_integrator) :: integ
+    end function new_integrator
+
     !> The tests of this suite.
     function hardening_tests() result(tests)
         type(test_case_t), allocatable :: tests(:)
@@ -481,7 +487,7 @@ contains
             type(constrained_integrator) :: integ
             integer :: i
             do i = 1, size(values)
-                integ = constrained_integrator()
+                integ = new_integrator()
                 select case (name)
                 case ("tolerance")
                     integ%newton%tolerance = values(i)
@@ -506,7 +512,7 @@ contains
             type(constrained_integrator) :: integ
             integer :: i
             do i = 1, size(values)
-                integ = constrained_integrator()
+                integ = new_integrator()
                 select case (name)
                 case ("max_iterations")
                     integ%newton%max_iterations = values(i)
@@ -669,7 +675,7 @@ contains
         call ieee_set_halting_mode(ieee_divide_by_zero, .true.)
         do k = 1, 2
             structured = k == 1
-            integ = constrained_integrator()
+            integ = new_integrator()
             integ%structured = structured
             call integ%init(sys, 2, 1, 3, status)
             call one_step(nan, q0, p0, HOLOSYM_INVALID_STEP_SIZE, "h = NaN")
@@ -694,7 +700,7 @@ contains
             call integ%dense_output(nan, q, p, lambda, status)
             call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "tau NaN")
             if (allocated(error)) return
-            integ = constrained_integrator()
+            integ = new_integrator()
             integ%structured = structured
             call integ%init(faulty, 2, 1, 3, status)
             q = q0
@@ -814,7 +820,7 @@ contains
         sys%n = 3
         sys%m = 2
         do k = 1, 3
-            integ = constrained_integrator()
+            integ = new_integrator()
             integ%structured = k == 1
             label = "into x >= 0 (" // path_name(k == 1) // ")"
             if (k == 3) then
@@ -887,8 +893,8 @@ contains
         integer :: k
         sys = spherical_pendulum()
         do k = 1, 2
-            checked = constrained_integrator()
-            unchecked = constrained_integrator()
+            checked = new_integrator()
+            unchecked = new_integrator()
             checked%structured = k == 1
             unchecked%structured = k == 1
             unchecked%check_roots = .false.
