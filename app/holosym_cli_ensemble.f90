@@ -111,7 +111,7 @@ contains
             "(code 0: success; else the status code, and the message says why).", &
             "Progress (done/total, rate, time left) on stderr. Exit status: 0 every row", &
             "written (failed trajectories included), 1 bad input or I/O failure (a full", &
-            "disk: the results, timing log and samples must be regular files), 2 bad usage.", &
+            "disk too), 2 bad usage.", &
             "", &
             "Example:", &
             "  holosym ensemble --system pendulum --perturb 100 --scale 0.01 --T 10 \", &

@@ -17,14 +17,13 @@
 !! `max_velocity_residual,newton_iterations,message`, then one row per trajectory; reals
 !! with 36 significant digits (exact in real128), the message in double quotes.
 !!
-!! Nothing written in vain: gfortran (12) reports neither a full disk nor a full device
-!! (/dev/full) nor a file-size limit on `write`, `flush` or `close` (iostat 0), so every
-!! write here closes its file and checks that the file's size grew by exactly the bytes
-!! written (`write_checked`); a shortfall stops the run with HOLOSYM_INVALID_ARGUMENT.
-!! The results, the timing log and the samples must therefore be regular files (a
-!! device or a pipe has no size to check). Files read (states, a results file to resume)
-!! must be text: a control byte or a line beyond `max_line_length` is refused, so that a
-!! device such as /dev/zero cannot make the reader loop.
+!! Nothing written in vain: every file is written through the C library's streams
+!! (`holosym_text_file`; Fortran units report neither a full disk nor a full device in
+!! gfortran 12, and stop the program in LLVM flang), and each write closes its file, so a
+!! write that does not reach the file stops the run with HOLOSYM_INVALID_ARGUMENT. Files
+!! read (states, a results file to resume) must be text: a control byte or a line beyond
+!! `max_line_length` is refused, so that a device such as /dev/zero cannot make the
+!! reader loop.
 module holosym_ensemble_files
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
@@ -33,6 +32,7 @@ module holosym_ensemble_files
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_ensemble, only: ensemble_states_t, ensemble_result_t, ensemble_sink, &
         sorted_order, samples_failure
+    use holosym_text_file, only: text_file_t
     implicit none
     private
 
@@ -562,66 +562,27 @@ contains
         header = header // ",energy_error,constraint_residual,velocity_residual"
     end function samples_header
 
-    !> Write `lines` to the file `path` and close it, then check that the file grew by
-    !! exactly the bytes written: `mode` "new" (the file must not exist), "replace" or
-    !! "append" (created when missing). gfortran (12) reports a full disk, a full device
-    !! or a file-size limit on none of write, flush and close, so the size is the check;
-    !! a file whose size says nothing (a device, a pipe) fails it. `message`: "" on
-    !! success, else what failed, naming the file.
+    !> Write `lines` to the file `path` and close it through `text_file_t` (the C
+    !! library's streams: a write that does not reach the file is seen, which Fortran
+    !! units do not guarantee): `mode` "new" (the file must not exist), "replace" or
+    !! "append" (created when missing). `message`: "" on success, else what failed,
+    !! naming the file.
     subroutine write_checked(path, lines, mode, message)
         character(len=*), intent(in) :: path          !! the file
         type(csv_text_t), intent(in) :: lines(:)      !! lines, without their ends
         character(len=*), intent(in) :: mode          !! "new", "replace" or "append"
         character(len=:), allocatable, intent(out) :: message !! "" or the failure
-        character(len=256) :: io_message
-        character(len=24) :: got, wanted
-        integer(int64) :: before, after, bytes
-        integer :: unit, ios, k
-        logical :: exists
+        type(text_file_t) :: file
+        integer :: k
         message = ""
-        before = 0
-        if (mode == "append") then
-            inquire (file=path, exist=exists, size=before)
-            if (.not. exists .or. before < 0) before = 0
-        end if
-        select case (mode)
-        case ("new")
-            open (newunit=unit, file=path, status="new", action="write", iostat=ios, &
-                  iomsg=io_message)
-        case ("append")
-            open (newunit=unit, file=path, status="unknown", position="append", &
-                  action="write", iostat=ios, iomsg=io_message)
-        case default
-            open (newunit=unit, file=path, status="replace", action="write", iostat=ios, &
-                  iomsg=io_message)
-        end select
-        if (ios /= 0) then
-            message = "cannot open '" // path // "': " // trim(io_message)
+        if (.not. file%open(path, mode)) then
+            message = file%failure
             return
         end if
-        bytes = 0
         do k = 1, size(lines)
-            write (unit, '(a)', iostat=ios, iomsg=io_message) lines(k)%text
-            if (ios /= 0) exit
-            bytes = bytes + len(lines(k)%text) + 1
+            call file%line(lines(k)%text)
         end do
-        if (ios /= 0) then
-            close (unit, iostat=k)
-            message = "cannot write '" // path // "': " // trim(io_message)
-            return
-        end if
-        close (unit, iostat=ios, iomsg=io_message)
-        if (ios /= 0) then
-            message = "cannot close '" // path // "': " // trim(io_message)
-            return
-        end if
-        inquire (file=path, size=after)
-        if (after /= before + bytes) then
-            write (got, '(i0)') max(after - before, 0_int64)
-            write (wanted, '(i0)') bytes
-            message = "only " // trim(got) // " of " // trim(wanted) // " bytes reached '" // &
-                path // "' (a full disk or device, a file-size limit, or not a regular file)"
-        end if
+        if (.not. file%close()) message = file%failure
     end subroutine write_checked
 
     !> Rename a file (POSIX rename: atomic within a file system).

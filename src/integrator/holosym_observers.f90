@@ -20,10 +20,11 @@
 !! dense output (`step_dense_output`) between step ends; such a row's residuals are those
 !! of the interpolated state, which meets the constraints only at the displacement nodes.
 !!
-!! A file opened by the writer (`file=`) is checked when closed: its size must be the
-!! bytes written, since gfortran (12) reports neither a full disk nor a full device nor
-!! a file-size limit on write, flush or close (iostat 0). Such a file must therefore be a
-!! regular file; write to a device or a pipe through `unit=`.
+!! A file opened by the writer (`file=`) is written through the C library's streams
+!! (`holosym_text_file`): a row that does not reach it (a full disk or device, a
+!! file-size limit) stops the run and `close` reports it, which Fortran units do not
+!! guarantee (gfortran 12 reports nothing, LLVM flang stops the program). With `unit=`
+!! the caller's unit is written as it is.
 module holosym_observers
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
@@ -35,6 +36,7 @@ module holosym_observers
     use holosym_problem, only: constrained_hamiltonian
     use holosym_manifold, only: manifold_residuals
     use holosym_integrator, only: step_observer, step_info_t
+    use holosym_text_file, only: text_file_t
     implicit none
     private
 
@@ -85,9 +87,8 @@ module holosym_observers
         integer :: rows = 0
         integer, private :: unit = -1
         logical, private :: owns_unit = .false.
-        !> The file opened by `open` and the bytes written to it (checked by `close`).
-        character(len=:), allocatable, private :: path
-        integer(int64), private :: bytes = 0
+        !> The file opened by `open` (when `file=` was given).
+        type(text_file_t), private :: file
         logical, private :: opened = .false.
         character(len=16), private :: real_format = ""
         integer, private :: every = 1
@@ -255,7 +256,9 @@ contains
         type(holosym_status_t) :: local
         type(energy_monitor) :: monitor
         character(len=256) :: io_message
+        type(text_file_t) :: new_file
         integer :: chosen_digits, chosen_every, new_unit, ios
+        logical :: closed
         real(wp) :: chosen_interval, t0
 
         chosen_digits = long_digits
@@ -285,35 +288,40 @@ contains
             call monitor%start(sys, q, p, local)
         end if
         if (local%ok()) then
+            new_unit = -1
             if (present(file)) then
-                open (newunit=new_unit, file=file, status="replace", action="write", &
-                      iostat=ios, iomsg=io_message)
-                if (ios /= 0) call set_status(local, HOLOSYM_INVALID_ARGUMENT, &
-                    "cannot open '" // file // "': " // trim(io_message))
+                if (.not. new_file%open(file, "replace")) call set_status(local, &
+                    HOLOSYM_INVALID_ARGUMENT, new_file%failure)
             else
                 new_unit = unit
             end if
         end if
         if (local%ok()) then
-            write (new_unit, '(a)', iostat=ios, iomsg=io_message) trajectory_header(sys%n, sys%m)
-            if (ios /= 0) then
-                call set_status(local, HOLOSYM_INVALID_ARGUMENT, "cannot write the header: " &
-                    // trim(io_message))
-                if (present(file)) close (new_unit, status="delete", iostat=ios)
+            if (present(file)) then
+                call new_file%line(trajectory_header(sys%n, sys%m))
+                call new_file%flush()
+                if (new_file%failed()) then
+                    call set_status(local, HOLOSYM_INVALID_ARGUMENT, "cannot write the " // &
+                        "header: " // new_file%failure)
+                    closed = new_file%close()
+                end if
+            else
+                write (new_unit, '(a)', iostat=ios, iomsg=io_message) &
+                    trajectory_header(sys%n, sys%m)
+                if (ios /= 0) call set_status(local, HOLOSYM_INVALID_ARGUMENT, &
+                    "cannot write the header: " // trim(io_message))
             end if
         end if
         if (.not. local%ok()) then
             call set_status(status, local%code, local%message)
             return
         end if
-        if (self%opened .and. self%owns_unit) close (self%unit, iostat=ios)
+        if (self%opened .and. self%owns_unit) closed = self%file%close()
         self%monitor = monitor
         self%rows = 0
         self%unit = new_unit
         self%owns_unit = present(file)
-        self%path = ""
-        if (present(file)) self%path = file
-        self%bytes = len(trajectory_header(sys%n, sys%m)) + 1
+        if (present(file)) self%file = new_file
         self%opened = .true.
         if (chosen_digits == short_digits) then
             self%real_format = '(es25.16e4)'
@@ -408,16 +416,13 @@ contains
     end subroutine writer_observe
 
     !> Finish the CSV: the start row when no step was observed (multipliers NaN), the last
-    !! observed step's row when `every` skipped it; close a file opened by `open` and check
-    !! that it holds every byte written. Codes: HOLOSYM_NOT_INITIALIZED (not opened),
-    !! HOLOSYM_USER_ABORT (a row could not be written, or the file is short of the bytes
-    !! written: a full disk or device, a file-size limit; the message says which).
+    !! observed step's row when `every` skipped it; close a file opened by `open`.
+    !! Codes: HOLOSYM_NOT_INITIALIZED (not opened), HOLOSYM_USER_ABORT (a row did not
+    !! reach the file: a full disk or device, a file-size limit; the message says which).
     subroutine writer_close(self, status)
         class(trajectory_writer), intent(inout) :: self
         type(holosym_status_t), intent(out), optional :: status !! outcome
         real(wp), allocatable :: nan(:)
-        integer(int64) :: size_after
-        character(len=24) :: got, wanted
         integer :: ios
         if (.not. self%opened) then
             call set_status(status, HOLOSYM_NOT_INITIALIZED, "trajectory_writer: close " // &
@@ -436,18 +441,13 @@ contains
                 self%last_velocity, self%last_iterations)
             self%pending = .false.
         end if
-        flush (self%unit, iostat=ios)
         if (self%owns_unit) then
-            close (self%unit, iostat=ios)
-            inquire (file=self%path, size=size_after)
-            if (self%io_status == 0 .and. size_after /= self%bytes) then
+            if (.not. self%file%close() .and. self%io_status == 0) then
                 self%io_status = -1
-                write (got, '(i0)') max(size_after, 0_int64)
-                write (wanted, '(i0)') self%bytes
-                self%io_message = "only " // trim(got) // " of " // trim(wanted) // &
-                    " bytes reached '" // self%path // "' (a full disk or device, a " // &
-                    "file-size limit, or not a regular file)"
+                self%io_message = self%file%failure
             end if
+        else
+            flush (self%unit, iostat=ios)
         end if
         self%opened = .false.
         if (self%io_status /= 0) then
@@ -516,14 +516,22 @@ contains
         if (present(start_row)) energy_error = 0
         call put("," // field(energy) // "," // field(energy_error) // "," // &
             field(position) // "," // field(velocity) // "," // int_str(iterations))
-        line = line(:used)
-        write (self%unit, '(a)', iostat=ios, iomsg=io_message) line
-        if (ios /= 0) then
-            self%io_status = ios
-            self%io_message = trim(io_message)
+        if (self%owns_unit) then
+            call self%file%line(line(:used))
+            if (self%file%failed()) then
+                self%io_status = -1
+                self%io_message = self%file%failure
+            else
+                self%rows = self%rows + 1
+            end if
         else
-            self%rows = self%rows + 1
-            self%bytes = self%bytes + len(line) + 1
+            write (self%unit, '(a)', iostat=ios, iomsg=io_message) line(:used)
+            if (ios /= 0) then
+                self%io_status = ios
+                self%io_message = trim(io_message)
+            else
+                self%rows = self%rows + 1
+            end if
         end if
     contains
         function field(value) result(text)
