@@ -123,9 +123,10 @@ module holosym_ensemble
         !! the order of completion. Set `halt` to stop (no new trajectory is started).
         procedure(sink_completed_interface), deferred :: completed
         !> The sampled states of a trajectory (`settings%every` > 0), on the worker that
-        !! computed it, before `completed` receives its result; concurrently with other
-        !! trajectories, so it must not change shared state. A failure is recorded as the
-        !! trajectory's status. Default: nothing is stored.
+        !! computed it, before `completed` receives its result; one call at a time, while
+        !! other trajectories are computed, so it must not change state that `completed`
+        !! uses. A failure is recorded as the trajectory's status. Default: nothing is
+        !! stored.
         procedure :: store_samples => ignore_samples
     end type ensemble_sink
 
@@ -522,7 +523,12 @@ contains
         type(holosym_status_t) :: status
         call integrate_member(self%sys, self%states, self%settings, task, result)
         if (allocated(result%samples) .and. associated(self%sink)) then
+            ! One sink call at a time: gfortran (12) keeps the length of a function result
+            ! of deferred length in a static variable at each call site, so two threads in
+            ! the same text-building code corrupt each other's strings and the heap.
+            !$omp critical (holosym_store_samples)
             call self%sink%store_samples(result, status)
+            !$omp end critical (holosym_store_samples)
             if (.not. status%ok() .and. result%code == HOLOSYM_SUCCESS) then
                 result%code = status%code
                 result%message = samples_failure // status%message

@@ -483,14 +483,16 @@ contains
         end do
     end function is_text
 
-    !> A real as a CSV field: 36 significant digits, no blanks.
-    function real_text(value) result(text)
-        real(wp), intent(in) :: value
-        character(len=:), allocatable :: text
+    !> Append `separator` and a real as a CSV field (36 significant digits, no blanks) to
+    !! `line`.
+    subroutine append_real(line, separator, value)
+        character(len=:), allocatable, intent(inout) :: line !! the text so far
+        character(len=*), intent(in) :: separator            !! put before the field
+        real(wp), intent(in) :: value                        !! the value
         character(len=48) :: buffer
         write (buffer, real_format) value
-        text = trim(adjustl(buffer))
-    end function real_text
+        line = line // separator // trim(adjustl(buffer))
+    end subroutine append_real
 
     !> The header of the results file for n coordinates.
     pure function result_header(n) result(header)
@@ -517,16 +519,16 @@ contains
         row = int_str(result%id) // "," // int_str(result%code) // "," // &
             int_str(result%steps) // "," // int_str(result%steps_done)
         do i = 1, size(result%q)
-            row = row // "," // real_text(result%q(i))
+            call append_real(row, ",", result%q(i))
         end do
         do i = 1, size(result%p)
-            row = row // "," // real_text(result%p(i))
+            call append_real(row, ",", result%p(i))
         end do
+        call append_real(row, ",", result%max_energy_error)
+        call append_real(row, ",", result%max_constraint_residual)
+        call append_real(row, ",", result%max_velocity_residual)
         write (iterations, '(i0)') result%newton_iterations
-        row = row // "," // real_text(result%max_energy_error) // "," // &
-            real_text(result%max_constraint_residual) // "," // &
-            real_text(result%max_velocity_residual) // "," // trim(iterations) // "," // &
-            quoted(result%message)
+        row = row // "," // trim(iterations) // "," // quoted(result%message)
     end function result_row
 
     !> Text in double quotes, each quote doubled, control characters as blanks.
@@ -874,9 +876,10 @@ contains
         allocate (lines(size(result%samples, 2) + 1))
         lines(1)%text = samples_header(size(result%q))
         do j = 1, size(result%samples, 2)
-            line = real_text(result%samples(1, j))
+            line = ""
+            call append_real(line, "", result%samples(1, j))
             do i = 2, size(result%samples, 1)
-                line = line // "," // real_text(result%samples(i, j))
+                call append_real(line, ",", result%samples(i, j))
             end do
             lines(j + 1)%text = line
         end do
