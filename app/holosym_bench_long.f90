@@ -7,7 +7,10 @@
 !! each configuration reaching each target (1e-20, 1e-24) is then run again, untimed,
 !! with the whole-run max |phi|, max |Phi H_p| and energy error measured after every
 !! step. With --heyoka PYTHON, tools/heyoka_bench.py runs the index-1 form over a sweep
-!! of tolerances on the same reference. Rows go to DIR/long.csv.
+!! of tolerances on the same reference. Rows go to DIR/long.csv, rewritten through
+!! `output_t` after each row (so that a full disk fails the command and an interrupted
+!! run keeps its rows); heyoka's rows come through a scratch file, checked, and Python
+!! runs without a shell (`run_program`).
 !! The sweep of (8,7,9) stops above the reference's coarser step (h_ref), where its error
 !! could no longer be told from the reference's.
 !! `--quick` (tests): T = 20 and 10, references at h = 1/8 and 1/16, heyoka at 1e-20 and
@@ -21,6 +24,8 @@ module holosym_bench_long
     use holosym_manifold, only: manifold_residuals
     use holosym_systems, only: make_system
     use holosym_cli_common, only: fail, csv_real
+    use holosym_output, only: output_t, open_output, remove_file, run_program, &
+        command_text, text_t, read_text_file, append_text
     implicit none
     private
 
@@ -127,9 +132,9 @@ contains
         type(run_monitor) :: monitor
         type(holosym_status_t) :: run_status
         real(real64) :: seconds
-        integer :: c, k, unit, ios, level, t, exit_code
-        character(len=256) :: message
-        character(len=:), allocatable :: reference_path, out_path, command
+        integer :: c, k, level, t
+        type(text_t), allocatable :: lines(:)
+        character(len=:), allocatable :: reference_path, out_path
 
         if (wp_is_double) then
             call fail(status, "the long runs need the real128 build (targets 1e-20, 1e-24)")
@@ -144,14 +149,10 @@ contains
         end if
         out_path = dir // "/long.csv"
         reference_path = dir // "/long_reference.csv"
-        open (newunit=unit, file=out_path, status="replace", action="write", iostat=ios, &
-              iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // out_path // ": " // trim(message))
-            return
-        end if
-        write (unit, '(a)') long_header
-        close (unit)
+        allocate (lines(0))
+        call append_text(lines, long_header)
+        call write_text(out_path, lines, status)
+        if (.not. status%ok()) return
         do c = 1, size(systems)
             if (quick .and. c == 2) cycle
             span = spans(c)
@@ -200,20 +201,8 @@ contains
                 end do
             end do
             if (len(python) > 0) then
-                command = "'" // python // "' tools/heyoka_bench.py long --system " // &
-                    trim(systems(c)) // " --span " // trim(real_str(span)) // &
-                    " --reference '" // reference_path // "' --out '" // out_path // &
-                    "' --tolerances "
-                if (quick) then
-                    command = command // heyoka_tolerances_quick
-                else
-                    command = command // heyoka_tolerances
-                end if
-                call execute_command_line(command, exitstat=exit_code)
-                if (exit_code /= 0) then
-                    call fail(status, "heyoka long runs failed: " // command)
-                    return
-                end if
+                call heyoka_long(trim(systems(c)))
+                if (.not. status%ok()) return
             end if
             deallocate (monitor%sys, q_ref, p_ref, q1, p1)
         end do
@@ -227,20 +216,79 @@ contains
             real(wp) :: timed_error
             call one_run(sys, q0, p0, span, configs(:, k), step, q_ref, p_ref, .true., &
                          timed, timed_error, monitor, run_status)
-            open (newunit=unit, file=out_path, position="append", action="write", &
-                  iostat=ios, iomsg=message)
-            if (ios /= 0) then
-                call fail(status, "cannot write " // out_path // ": " // trim(message))
-                return
-            end if
-            write (unit, '(a)') trim(systems(c)) // ",holosym,real128," // &
+            call append_text(lines, trim(systems(c)) // ",holosym,real128," // &
                 trim(real_str(span)) // ",(" // config_text(configs(:, k)) // ") h=" // &
                 trim(real_str(step)) // ",0," // int_str(nint(span / step)) // "," // &
                 csv_real(error) // "," // csv_real(monitor%max_phi) // "," // &
                 csv_real(monitor%max_hidden) // "," // csv_real(monitor%energy_error) // "," &
-                // csv_real(real(seconds, wp)) // ",0," // int_str(run_status%code)
-            close (unit)
+                // csv_real(real(seconds, wp)) // ",0," // int_str(run_status%code))
+            call write_text(out_path, lines, status)
         end subroutine record
+
+        !> heyoka's long runs of a case: tools/heyoka_bench.py (no shell) writes its rows
+        !! to a scratch file; each must have the columns of long.csv and be heyoka's row of
+        !! this system; they are added to long.csv.
+        subroutine heyoka_long(system)
+            character(len=*), intent(in) :: system
+            type(text_t), allocatable :: argv(:), part_lines(:)
+            character(len=:), allocatable :: part
+            integer :: exit_code, row
+            part = out_path // ".heyoka"
+            call remove_file(part, status)
+            if (.not. status%ok()) return
+            allocate (argv(0))
+            call append_text(argv, python)
+            call append_text(argv, "tools/heyoka_bench.py")
+            call append_text(argv, "long")
+            call append_text(argv, "--system")
+            call append_text(argv, system)
+            call append_text(argv, "--span")
+            call append_text(argv, trim(real_str(span)))
+            call append_text(argv, "--reference")
+            call append_text(argv, reference_path)
+            call append_text(argv, "--out")
+            call append_text(argv, part)
+            call append_text(argv, "--tolerances")
+            if (quick) then
+                call append_text(argv, heyoka_tolerances_quick)
+            else
+                call append_text(argv, heyoka_tolerances)
+            end if
+            write (err_unit, '(a)') "bench --long: " // command_text(argv)
+            call run_program(argv, "", exit_code, status)
+            if (.not. status%ok()) then
+                status%message = "heyoka long runs could not be started: " // status%message
+                return
+            end if
+            if (exit_code /= 0) then
+                call fail(status, "heyoka long runs failed (exit status " // &
+                    int_str(exit_code) // "): " // command_text(argv))
+                return
+            end if
+            call read_text_file(part, part_lines, status)
+            if (.not. status%ok()) return
+            if (size(part_lines) == 0) then
+                call fail(status, part // ": no header")
+                return
+            else if (part_lines(1)%text /= long_header) then
+                call fail(status, part // ": line 1 is not the header of long.csv")
+                return
+            end if
+            do row = 2, size(part_lines)
+                if (count_commas(part_lines(row)%text) /= count_commas(long_header) .or. &
+                    index(part_lines(row)%text, system // ",heyoka,real128,") /= 1) then
+                    call fail(status, part // ": line " // int_str(row) // " is not a " // &
+                        "row of heyoka's long runs of " // system // " with the columns " // &
+                        "of long.csv")
+                    return
+                end if
+            end do
+            do row = 2, size(part_lines)
+                call append_text(lines, part_lines(row)%text)
+            end do
+            call write_text(out_path, lines, status)
+            if (status%ok()) call remove_file(part, status)
+        end subroutine heyoka_long
 
     end subroutine run_long
 
@@ -250,35 +298,57 @@ contains
         text = int_str(config(1)) // " " // int_str(config(2)) // " " // int_str(config(3))
     end function config_text
 
-    !> Append the initial and reference states of a case (the format of reference.csv).
+    !> Write the initial and reference states of a case (the format of reference.csv)
+    !! to `path` (replaced: it holds the case being run).
     subroutine write_reference(path, system, q0, p0, q_ref, p_ref, accuracy, status)
         character(len=*), intent(in) :: path, system
         real(wp), intent(in) :: q0(:), p0(:), q_ref(:), p_ref(:), accuracy
         type(holosym_status_t), intent(inout) :: status
-        integer :: unit, ios, k
-        character(len=256) :: message
-        open (newunit=unit, file=path, status="replace", action="write", iostat=ios, &
-              iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // path // ": " // trim(message))
-            return
-        end if
-        write (unit, '(a)') "# " // system // ": estimated error of the reference " // &
-            real_str(accuracy)
+        type(output_t) :: file
+        integer :: k
+        call open_output(path, file, status)
+        if (.not. status%ok()) return
+        call file%line("# " // system // ": estimated error of the reference " // &
+            real_str(accuracy))
         do k = 1, size(q0)
-            write (unit, '(a)') system // ",q0," // int_str(k) // "," // csv_real(q0(k))
+            call file%line(system // ",q0," // int_str(k) // "," // csv_real(q0(k)))
         end do
         do k = 1, size(p0)
-            write (unit, '(a)') system // ",p0," // int_str(k) // "," // csv_real(p0(k))
+            call file%line(system // ",p0," // int_str(k) // "," // csv_real(p0(k)))
         end do
         do k = 1, size(q_ref)
-            write (unit, '(a)') system // ",q," // int_str(k) // "," // csv_real(q_ref(k))
+            call file%line(system // ",q," // int_str(k) // "," // csv_real(q_ref(k)))
         end do
         do k = 1, size(p_ref)
-            write (unit, '(a)') system // ",p," // int_str(k) // "," // csv_real(p_ref(k))
+            call file%line(system // ",p," // int_str(k) // "," // csv_real(p_ref(k)))
         end do
-        close (unit)
+        call file%close(status)
     end subroutine write_reference
+
+    !> Write `lines` to `path` (replaced) through `output_t`.
+    subroutine write_text(path, lines, status)
+        character(len=*), intent(in) :: path
+        type(text_t), intent(in) :: lines(:)
+        type(holosym_status_t), intent(inout) :: status
+        type(output_t) :: file
+        integer :: k
+        call open_output(path, file, status)
+        if (.not. status%ok()) return
+        do k = 1, size(lines)
+            call file%line(lines(k)%text)
+        end do
+        call file%close(status)
+    end subroutine write_text
+
+    !> Commas in a line.
+    pure integer function count_commas(line)
+        character(len=*), intent(in) :: line
+        integer :: k
+        count_commas = 0
+        do k = 1, len(line)
+            if (line(k:k) == ",") count_commas = count_commas + 1
+        end do
+    end function count_commas
 
 end module holosym_bench_long
 

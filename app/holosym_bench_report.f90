@@ -1,13 +1,24 @@
 !> Sections of docs/performance.md from the CSV files of `holosym bench --scaling`
 !! (DIR/scaling.csv, scaling64.csv) and `--long` (DIR/long.csv): tables, the fitted
 !! exponent of the cost per step against K, and the verdicts on the scaling and long-run
-!! targets. Missing files give a line saying which command makes them.
+!! targets. Missing files give a line saying which command makes them; the files are
+!! read strictly (`check_report_files` before the page is written: `bench --summarize`
+!! fails on a malformed file instead of printing NaN or garbage).
 module holosym_bench_report
     use, intrinsic :: iso_fortran_env, only: real64
+    use holosym_kinds, only: wp
+    use holosym_status, only: holosym_status_t, status_code_name, HOLOSYM_SUCCESS
+    use holosym_output, only: output_t, text_t, read_text_file
+    use holosym_cli_common, only: parse_integer, parse_real, fail
+    use holosym_bench_scaling, only: scaling_header
+    use holosym_bench_long, only: long_header
     implicit none
     private
 
-    public :: scaling_section, long_section, read_csv, csv_table_t
+    public :: scaling_section, long_section, read_csv, csv_table_t, check_report_files
+
+    !> Largest time in seconds a file may give (a bound that keeps ratios finite).
+    real(wp), parameter :: max_seconds = 1.0e12_wp
 
     !> Longest field of a CSV line.
     integer, parameter :: field_length = 64
@@ -27,62 +38,159 @@ module holosym_bench_report
 
 contains
 
-    !> Read a CSV file with a header line; `found` false when the file is missing or has a
-    !! line with another number of fields than the header.
-    subroutine read_csv(path, table, found)
+    !> Read the CSV file `path` whose first line must be `header`; `found` false when the
+    !! file does not exist. Every row must have the header's fields, each in its range
+    !! (`field_ok`); a field longer than `field_length` is refused. Failure
+    !! (HOLOSYM_INVALID_ARGUMENT: not text, another header, a row with other fields, a
+    !! value out of its range) names the file, the line and the field.
+    subroutine read_csv(path, header, table, found, status)
         character(len=*), intent(in) :: path      !! the file
+        character(len=*), intent(in) :: header    !! its expected first line
         type(csv_table_t), intent(out) :: table   !! its contents
-        logical, intent(out) :: found             !! read
-        character(len=2048) :: line
+        logical, intent(out) :: found             !! the file exists
+        type(holosym_status_t), intent(out) :: status !! outcome
+        type(text_t), allocatable :: lines(:)
         character(len=field_length), allocatable :: fields(:)
-        integer :: unit, ios, rows
+        character(len=:), allocatable :: problem
+        integer :: row, k
+        logical :: ok
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        allocate (table%names(0), table%cells(0, 0))
         inquire (file=path, exist=found)
         if (.not. found) return
-        open (newunit=unit, file=path, status="old", action="read", iostat=ios)
-        found = ios == 0
-        if (.not. found) return
-        read (unit, '(a)', iostat=ios) line
-        if (ios /= 0) then
-            found = .false.
-            close (unit)
+        call read_text_file(path, lines, status)
+        if (.not. status%ok()) return
+        if (size(lines) == 0) then
+            call fail(status, path // ": line 1: not the header " // header)
             return
         end if
-        table%names = split(line)
-        allocate (table%cells(size(table%names), 0))
-        rows = 0
-        do
-            read (unit, '(a)', iostat=ios) line
-            if (ios /= 0) exit
-            if (len_trim(line) == 0) cycle
-            fields = split(line)
-            if (size(fields) /= size(table%names)) then
-                found = .false.
-                exit
+        if (lines(1)%text /= header) then
+            call fail(status, path // ": line 1: not the header " // header)
+            return
+        end if
+        table%names = split(header)
+        deallocate (table%cells)
+        allocate (table%cells(size(table%names), size(lines) - 1))
+        do row = 2, size(lines)
+            call split_checked(lines(row)%text, size(table%names), fields, ok)
+            if (.not. ok) then
+                call fail(status, path // ": line " // int_text(row) // ": expected " // &
+                    int_text(size(table%names)) // " comma-separated fields of at most " // &
+                    int_text(field_length) // " characters")
+                return
             end if
-            table%cells = reshape([character(len=field_length) :: table%cells, fields], &
-                [size(table%names), rows + 1])
-            rows = rows + 1
+            do k = 1, size(fields)
+                problem = field_problem(trim(table%names(k)), trim(fields(k)))
+                if (len(problem) > 0) then
+                    call fail(status, path // ": line " // int_text(row) // ": field " // &
+                        trim(table%names(k)) // " " // problem // ": '" // trim(fields(k)) // "'")
+                    return
+                end if
+            end do
+            table%cells(:, row - 1) = fields
         end do
-        close (unit)
     end subroutine read_csv
 
-    !> The comma-separated fields of a line.
+    !> Fail when a scaling or long-run file in `dir` is malformed (see `read_csv`);
+    !! missing files are no error.
+    subroutine check_report_files(dir, status)
+        character(len=*), intent(in) :: dir !! directory of the CSV files
+        type(holosym_status_t), intent(inout) :: status !! failure naming file and line
+        type(csv_table_t) :: table
+        logical :: found
+        if (status%ok()) call read_csv(dir // "/scaling.csv", scaling_header, table, found, &
+                                       status)
+        if (status%ok()) call read_csv(dir // "/scaling64.csv", scaling_header, table, found, &
+                                       status)
+        if (status%ok()) call read_csv(dir // "/long.csv", long_header, table, found, status)
+    end subroutine check_report_files
+
+    !> What is wrong with the value `text` of the column `name` ("" when it is in range):
+    !! names from a fixed list (precision, path, system, method), counts and sizes as
+    !! integers in range, times in [0, 1e12] seconds, errors and residuals finite >= 0, a
+    !! tolerance in [0, 1), a span > 0, status a documented code.
+    function field_problem(name, text) result(problem)
+        character(len=*), intent(in) :: name, text
+        character(len=:), allocatable :: problem
+        type(holosym_status_t) :: local
+        integer :: integer_value
+        real(wp) :: value
+        problem = ""
+        select case (name)
+        case ("precision")
+            if (text /= "real128" .and. text /= "real64") problem = "is not real128 or real64"
+        case ("path")
+            if (text /= "reduced" .and. text /= "general") problem = "is not reduced or general"
+        case ("system")
+            if (text /= "pendulum" .and. text /= "linkage" .and. text /= "planar") &
+                problem = "is not pendulum, linkage or planar"
+        case ("method")
+            if (text /= "holosym" .and. text /= "heyoka") problem = "is not holosym or heyoka"
+        case ("config")
+            if (len(text) == 0) problem = "is empty"
+        case ("links", "n", "m", "steps", "max_rss_kb", "status")
+            call parse_integer(name, text, integer_value, local)
+            if (.not. local%ok()) then
+                problem = "is not an integer"
+            else if (name == "links" .and. integer_value < 1) then
+                problem = "is not >= 1"
+            else if (name == "max_rss_kb" .and. integer_value < -1) then
+                problem = "is not >= -1"
+            else if (name == "status") then
+                if (status_code_name(integer_value) == "unknown status") &
+                    problem = "is not a holosym status code"
+            else if (name /= "max_rss_kb" .and. integer_value < 0) then
+                problem = "is not >= 0"
+            end if
+        case default
+            call parse_real(name, text, value, local)
+            if (.not. local%ok()) then
+                problem = "is not a finite number"
+            else if (.not. value >= 0) then
+                problem = "is not >= 0"
+            else if (name == "span" .and. .not. value > 0) then
+                problem = "is not > 0"
+            else if (name == "tolerance" .and. .not. value < 1) then
+                problem = "is not in [0, 1)"
+            else if (index(name, "seconds") > 0 .and. .not. value <= max_seconds) then
+                problem = "is more than 1e12 seconds"
+            end if
+        end select
+    end function field_problem
+
+    !> The comma-separated fields of a header line.
     pure function split(line) result(fields)
         character(len=*), intent(in) :: line
         character(len=field_length), allocatable :: fields(:)
-        integer :: first, comma
-        allocate (fields(0))
-        first = 1
-        do
-            comma = index(line(first:), ",")
-            if (comma == 0) then
-                fields = [character(len=field_length) :: fields, line(first:len_trim(line))]
-                exit
-            end if
-            fields = [character(len=field_length) :: fields, line(first:first + comma - 2)]
-            first = first + comma
-        end do
+        logical :: ok
+        call split_checked(line, -1, fields, ok)
     end function split
+
+    !> Split `line` at its commas into `fields`; `ok` false when a field is longer than
+    !! `field_length` or, with `expected` >= 0, the count is not `expected`.
+    pure subroutine split_checked(line, expected, fields, ok)
+        character(len=*), intent(in) :: line
+        integer, intent(in) :: expected
+        character(len=field_length), allocatable, intent(out) :: fields(:)
+        logical, intent(out) :: ok
+        integer :: first, comma, count, k, last
+        count = 1
+        do k = 1, len(line)
+            if (line(k:k) == ",") count = count + 1
+        end do
+        ok = expected < 0 .or. count == expected
+        allocate (fields(count))
+        first = 1
+        do k = 1, count
+            comma = index(line(first:), ",")
+            last = len(line)
+            if (comma > 0) last = first + comma - 2
+            if (last - first + 1 > field_length) ok = .false.
+            fields(k) = line(first:last)
+            first = last + 2
+        end do
+    end subroutine split_checked
 
     !> Column of a named field (0 when absent).
     pure integer function column(table, name)
@@ -158,12 +266,16 @@ contains
             links = nint(number(table, "links", r))
             if (field(table, "precision", r) /= precision .or. field(table, "path", r) /= path &
                 .or. links < 8 .or. links > 256 .or. nint(number(table, "status", r)) /= 0) cycle
+            ! A time of 0 (below the clock's resolution) has no logarithm.
+            if (.not. number(table, "seconds_per_step", r) > 0) cycle
             count = count + 1
             x(count) = log(real(links, real64))
             y(count) = log(number(table, "seconds_per_step", r))
         end do
         slope = -1
         if (count < 2) return
+        ! At least two different K (a repeated point gives no slope).
+        if (.not. sum((x(:count) - sum(x(:count)) / count)**2) > 0) return
         slope = sum((x(:count) - sum(x(:count)) / count) * (y(:count) - sum(y(:count)) / count)) &
             / sum((x(:count) - sum(x(:count)) / count)**2)
     end function fitted_exponent
@@ -171,7 +283,7 @@ contains
     !> The scaling section: table, exponents, memory per link, verdicts.
     subroutine scaling_section(dir, unit)
         character(len=*), intent(in) :: dir !! directory of the CSV files
-        integer, intent(in) :: unit         !! Markdown output
+        type(output_t), intent(inout) :: unit !! the page
         type(csv_table_t) :: quad, double, both
         logical :: have_quad, have_double
         integer :: r, links, k
@@ -180,31 +292,37 @@ contains
         character(len=:), allocatable :: line
         character(len=7), parameter :: precisions(2) = ["real128", "real64 "]
         character(len=7), parameter :: paths(2) = ["reduced", "general"]
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## Scaling: a chain of K planar pendula"
-        write (unit, '(a)') ""
-        call read_csv(dir // "/scaling.csv", quad, have_quad)
-        call read_csv(dir // "/scaling64.csv", double, have_double)
+        type(holosym_status_t) :: status
+        call unit%line("")
+        call unit%line("## Scaling: a chain of K planar pendula")
+        call unit%line("")
+        call read_csv(dir // "/scaling.csv", scaling_header, quad, have_quad, status)
+        if (.not. status%ok()) have_quad = .false.
+        call read_csv(dir // "/scaling64.csv", scaling_header, double, have_double, status)
+        if (.not. status%ok()) have_double = .false.
         if (.not. (have_quad .or. have_double)) then
-            write (unit, '(a)') "No scaling.csv in " // dir // ": `holosym bench --scaling` " // &
-                "makes it."
+            call unit%line("No scaling.csv in " // dir // ": `holosym bench --scaling` " // &
+                "makes it.")
             return
         end if
-        if (.not. have_quad) quad = double
-        if (.not. have_double) double = quad
-        both%names = quad%names
-        both%cells = reshape([character(len=field_length) :: quad%cells, double%cells], [ &
-            size(quad%names), &
-            size(quad%cells, 2) + size(double%cells, 2)])
-        write (unit, '(a)') "n = 2K, m = K, (M, N, G) = (4, 3, 5), h = 0.01 (command: " // &
+        if (have_quad .and. have_double) then
+            both%names = quad%names
+            both%cells = reshape([character(len=field_length) :: quad%cells, double%cells], [ &
+                size(quad%names), size(quad%cells, 2) + size(double%cells, 2)])
+        else if (have_quad) then
+            both = quad
+        else
+            both = double
+        end if
+        call unit%line("n = 2K, m = K, (M, N, G) = (4, 3, 5), h = 0.01 (command: " // &
             "`holosym bench --scaling`, in the real128 and real64 builds). Seconds per step; " // &
             "the reduced step is the default, the general path is `structured = .false.` " // &
             "(dense Newton matrices), run while affordable. Peak memory: VmHWM of the " // &
-            "process that ran the point."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| K | reduced real128 s | general real128 s | reduced real64 s " // &
-            "| general real64 s | peak MB (reduced real128) |"
-        write (unit, '(a)') "|---|---|---|---|---|---|"
+            "process that ran the point.")
+        call unit%line("")
+        call unit%line("| K | reduced real128 s | general real128 s | reduced real64 s " // &
+            "| general real64 s | peak MB (reduced real128) |")
+        call unit%line("|---|---|---|---|---|---|")
         allocate (all_links(0))
         do r = 1, size(both%cells, 2)
             links = nint(number(both, "links", r))
@@ -224,26 +342,26 @@ contains
                 end if
             end do
             line = line // " " // memory_mb(both, links) // " |"
-            write (unit, '(a)') line
+            call unit%line(line)
         end do
-        write (unit, '(a)') ""
+        call unit%line("")
         do k = 1, 2
             do r = 1, 2
                 exponent = fitted_exponent(both, trim(precisions(k)), trim(paths(r)))
-                if (exponent > 0) write (unit, '(a)') "- Fitted exponent of the cost per " // &
+                if (exponent > 0) call unit%line("- Fitted exponent of the cost per " // &
                     "step against K (K = 8 .. 256), " // trim(paths(r)) // " path, " // &
                     trim(precisions(k)) // ": **" // fixed(exponent) // "** (target: at " // &
-                    "most 1.2 for the structured path)."
+                    "most 1.2 for the structured path).")
             end do
         end do
         at100 = [per_step(both, "real128", "reduced", 100), &
                  per_step(both, "real64", "reduced", 100)]
-        if (at100(1) > 0) write (unit, '(a)') "- K = 100, real128: " // &
+        if (at100(1) > 0) call unit%line("- K = 100, real128: " // &
             fixed(1000 * at100(1)) // " ms per step (target: at most 10 ms): " // &
-            verdict(at100(1) <= 0.010_real64)
-        if (at100(2) > 0) write (unit, '(a)') "- K = 100, real64: " // &
+            verdict(at100(1) <= 0.010_real64))
+        if (at100(2) > 0) call unit%line("- K = 100, real64: " // &
             fixed(1000 * at100(2)) // " ms per step (target: at most 0.5 ms): " // &
-            verdict(at100(2) <= 0.0005_real64)
+            verdict(at100(2) <= 0.0005_real64))
         rss_first = -1
         rss_last = -1
         do r = 1, size(both%cells, 2)
@@ -253,10 +371,10 @@ contains
             if (nint(number(both, "links", r)) == maxval(all_links)) rss_last = &
                 number(both, "max_rss_kb", r)
         end do
-        if (rss_first > 0 .and. rss_last > 0 .and. maxval(all_links) > 1) write (unit, '(a)') &
+        if (rss_first > 0 .and. rss_last > 0 .and. maxval(all_links) > 1) call unit%line( &
             "- Peak memory grows by " // fixed((rss_last - rss_first) / &
             (maxval(all_links) - 1)) // " kB per link from K = 1 to " // &
-            int_text(maxval(all_links)) // " (real128, reduced step)."
+            int_text(maxval(all_links)) // " (real128, reduced step).")
     contains
         function memory_mb(table, links) result(text)
             type(csv_table_t), intent(in) :: table
@@ -275,32 +393,33 @@ contains
     !> The long-run section: per case and target, holosym's and heyoka's cheapest run.
     subroutine long_section(dir, unit)
         character(len=*), intent(in) :: dir !! directory of long.csv
-        integer, intent(in) :: unit         !! Markdown output
+        type(output_t), intent(inout) :: unit !! the page
         type(csv_table_t) :: table
         logical :: found
         real(real64), parameter :: targets(2) = [1.0e-20_real64, 1.0e-24_real64]
         character(len=:), allocatable :: line
         character(len=field_length), allocatable :: cases(:)
         integer :: r, c, t, mine, theirs
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## Long runs"
-        write (unit, '(a)') ""
-        call read_csv(dir // "/long.csv", table, found)
-        if (.not. found) then
-            write (unit, '(a)') "No long.csv in " // dir // ": `make bench-long` " // &
-                "(`holosym bench --long --heyoka PYTHON`) makes it."
+        type(holosym_status_t) :: status
+        call unit%line("")
+        call unit%line("## Long runs")
+        call unit%line("")
+        call read_csv(dir // "/long.csv", long_header, table, found, status)
+        if (.not. (found .and. status%ok())) then
+            call unit%line("No long.csv in " // dir // ": `make bench-long` " // &
+                "(`holosym bench --long --heyoka PYTHON`) makes it.")
             return
         end if
-        write (unit, '(a)') "real128; the cheapest run of each method with error at T " // &
+        call unit%line("real128; the cheapest run of each method with error at T " // &
             "at most the target (reference: holosym (8,7,9) at h = 1/32, " // &
             "long_reference.csv). max |phi| and the energy error are whole-run " // &
             "(holosym: after every step and at every node; heyoka: on 10001 output times). " // &
             "'x' = heyoka's CPU time / holosym's (target: at least 2, with holosym's " // &
-            "max |phi| at most 1e-30)."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| system | T | target | holosym run | s | error | max phi | " // &
-            "energy error | heyoka run | s | error | max phi | energy error | x |"
-        write (unit, '(a)') "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+            "max |phi| at most 1e-30).")
+        call unit%line("")
+        call unit%line("| system | T | target | holosym run | s | error | max phi | " // &
+            "energy error | heyoka run | s | error | max phi | energy error | x |")
+        call unit%line("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         allocate (cases(0))
         do r = 1, size(table%cells, 2)
             line = field(table, "system", r) // " " // field(table, "span", r)
@@ -318,7 +437,7 @@ contains
                 else
                     line = line // " — |"
                 end if
-                write (unit, '(a)') line
+                call unit%line(line)
             end do
         end do
     contains

@@ -15,6 +15,7 @@ module holosym_bench_scaling
     use holosym_integrator, only: constrained_integrator
     use holosym_systems, only: make_system
     use holosym_cli_common, only: fail, csv_real
+    use holosym_output, only: output_t
     implicit none
     private
 
@@ -75,12 +76,12 @@ contains
     end function peak_memory_kb
 
     !> Time the chain of `links` links on one path and write its CSV line (no header)
-    !! to `out_unit`. Failure of the integrator: the line carries its status code.
-    subroutine scaling_point(links, general, quick, out_unit, status)
+    !! to `out`. Failure of the integrator: the line carries its status code.
+    subroutine scaling_point(links, general, quick, out, status)
         integer, intent(in) :: links    !! K
         logical, intent(in) :: general  !! the general path instead of the reduced step
         logical, intent(in) :: quick    !! short timing batches
-        integer, intent(in) :: out_unit !! CSV line
+        type(output_t), intent(inout) :: out !! CSV line
         type(holosym_status_t), intent(out) :: status !! failure to set up the system
         class(constrained_hamiltonian), allocatable :: sys
         type(constrained_integrator) :: integ
@@ -108,11 +109,11 @@ contains
             if (finish - start >= min_seconds .or. batch >= 2**20) exit
             batch = 2 * batch
         end do
-        write (out_unit, '(a)') trim(merge("real64 ", "real128", wp_is_double)) // "," // &
+        call out%line(trim(merge("real64 ", "real128", wp_is_double)) // "," // &
             trim(merge("general", "reduced", general)) // "," // int_str(links) // "," // &
             int_str(sys%n) // "," // int_str(sys%m) // "," // int_str(steps) // "," // &
             csv_real(real(per_step, wp)) // "," // int64_text(peak_memory_kb()) // "," // &
-            int_str(run_status%code)
+            int_str(run_status%code))
     end subroutine scaling_point
 
     pure function int64_text(value) result(text)

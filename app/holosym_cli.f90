@@ -1,14 +1,16 @@
 !> The dispatcher of the `holosym` command-line tool: `holosym COMMAND [options]`.
 !!
 !! Each command lives in its own module `holosym_cli_NAME` with a procedure
-!! `NAME_command(args, out_unit, err_unit, exit_code)` and a `NAME_help()` text. To add a
+!! `NAME_command(args, out, err_unit, exit_code)` and a `NAME_help()` text. To add a
 !! command (e.g. `tables`, `extremes`, `bench`), write that module, add one `case` to
 !! `run_command` and one line to `cli_help`. Nothing here stops the program: the main
 !! program turns `exit_code` into the process exit status.
 module holosym_cli
     use holosym_release, only: holosym_version
     use holosym_kinds, only: wp
-    use holosym_cli_common, only: cli_argument_t, join_lines, EXIT_OK, EXIT_USAGE
+    use holosym_status, only: holosym_status_t, int_str
+    use holosym_output, only: output_t, standard_output, open_output
+    use holosym_cli_common, only: cli_argument_t, join_lines, EXIT_OK, EXIT_USAGE, EXIT_FAILURE
     use holosym_cli_simulate, only: simulate_command
     use holosym_cli_tables, only: tables_command
     use holosym_cli_bench, only: bench_command
@@ -52,17 +54,31 @@ contains
             "Exit status: 0 success, 1 the command failed, 2 bad usage."])
     end function cli_help
 
-    !> Run the command line `args` (without the program name). Output goes to `out_unit`,
-    !! messages to `err_unit`; `exit_code` is 0 on success, 1 when a command failed and
-    !! 2 on a usage error (no or unknown command, bad options). `farm` (the MPI build's)
-    !! computes the tasks of `ensemble` and `tables`; without it they run on threads.
-    subroutine cli_run(args, out_unit, err_unit, exit_code, farm)
+    !> Run the command line `args` (without the program name). Results and help go to
+    !! standard output (with `quiet`, nowhere: the MPI ranks that do not collect),
+    !! messages to `err_unit`; `exit_code` is 0 on success, 1 when a command failed (also
+    !! when its results could not be written) and 2 on a usage error (no or unknown
+    !! command, bad options). `farm` (the MPI build's) computes the tasks of `ensemble` and
+    !! `tables`; without it they run on threads.
+    subroutine cli_run(args, err_unit, exit_code, farm, quiet)
         type(cli_argument_t), intent(in) :: args(:) !! command-line arguments
-        integer, intent(in) :: out_unit   !! unit for results and help
         integer, intent(in) :: err_unit   !! unit for progress and errors
         integer, intent(out) :: exit_code !! process exit code
         class(task_farm), intent(inout), optional :: farm !! who computes farmed tasks
+        logical, intent(in), optional :: quiet !! discard the results (not the messages)
+        type(output_t) :: out
+        type(holosym_status_t) :: status
+        character(len=:), allocatable :: name
+        logical :: discard
 
+        discard = .false.
+        if (present(quiet)) discard = quiet
+        if (discard) then
+            call open_output("/dev/null", out, status)
+        else
+            out = standard_output()
+        end if
+        name = "holosym"
         if (size(args) == 0) then
             write (err_unit, '(a)') cli_help()
             exit_code = EXIT_USAGE
@@ -70,46 +86,54 @@ contains
         end if
         select case (args(1)%text)
         case ("-h", "--help")
-            write (out_unit, '(a)') cli_help()
+            call out%line(cli_help())
             exit_code = EXIT_OK
         case ("-V", "--version")
-            write (out_unit, '(a, i0, a)') "holosym " // holosym_version // &
-                " (working precision: ", storage_size(1.0_wp), "-bit real)"
+            call out%line("holosym " // holosym_version // " (working precision: " // &
+                int_str(storage_size(1.0_wp)) // "-bit real)")
             exit_code = EXIT_OK
         case ("help")
             if (size(args) == 1) then
-                write (out_unit, '(a)') cli_help()
+                call out%line(cli_help())
                 exit_code = EXIT_OK
             else
-                call run_command(args(2)%text, [cli_argument_t("--help")], out_unit, &
-                                 err_unit, exit_code, farm)
+                name = "holosym " // args(2)%text
+                call run_command(args(2)%text, [cli_argument_t("--help")], out, err_unit, &
+                                 exit_code, farm)
             end if
         case default
-            call run_command(args(1)%text, args(2:), out_unit, err_unit, exit_code, farm)
+            name = "holosym " // args(1)%text
+            call run_command(args(1)%text, args(2:), out, err_unit, exit_code, farm)
         end select
+        ! A command that succeeded fails when its output could not be written.
+        call out%close(status)
+        if (.not. status%ok() .and. exit_code == EXIT_OK) then
+            write (err_unit, '(a)') name // ": error: " // status%message
+            exit_code = EXIT_FAILURE
+        end if
     end subroutine cli_run
 
     !> Dispatch to the command called `name` with its arguments.
-    subroutine run_command(name, args, out_unit, err_unit, exit_code, farm)
+    subroutine run_command(name, args, out, err_unit, exit_code, farm)
         character(len=*), intent(in) :: name        !! the command
         type(cli_argument_t), intent(in) :: args(:) !! its arguments
-        integer, intent(in) :: out_unit   !! unit for results and help
+        type(output_t), intent(inout) :: out   !! results and help
+        class(task_farm), intent(inout), optional :: farm !! who computes farmed tasks
         integer, intent(in) :: err_unit   !! unit for progress and errors
         integer, intent(out) :: exit_code !! process exit code
-        class(task_farm), intent(inout), optional :: farm !! who computes farmed tasks
         select case (name)
         case ("simulate")
-            call simulate_command(args, out_unit, err_unit, exit_code)
+            call simulate_command(args, out, err_unit, exit_code)
         case ("tables")
-            call tables_command(args, out_unit, err_unit, exit_code, farm)
+            call tables_command(args, out, err_unit, exit_code, farm)
         case ("bench")
-            call bench_command(args, out_unit, err_unit, exit_code)
+            call bench_command(args, out, err_unit, exit_code)
         case ("extremes")
-            call extremes_command(args, out_unit, err_unit, exit_code)
+            call extremes_command(args, out, err_unit, exit_code)
         case ("ensemble")
-            call ensemble_command(args, out_unit, err_unit, exit_code, farm)
+            call ensemble_command(args, out, err_unit, exit_code, farm)
         case ("figures")
-            call figures_command(args, out_unit, err_unit, exit_code)
+            call figures_command(args, out, err_unit, exit_code)
         case default
             write (err_unit, '(a)') "holosym: unknown command '" // name // &
                 "'; run 'holosym --help' for the list of commands"

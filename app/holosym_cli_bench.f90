@@ -8,22 +8,31 @@
 !! reference states) and DIR/summary.md; the summary also goes to the output unit.
 !! `--summarize DIR` only rebuilds DIR/summary.md and DIR/performance.md from the CSV
 !! files there. tools/plot_bench.py draws the plots from the CSV files.
+!!
+!! Every file is written through `output_t` (a full disk fails the command), directories
+!! are made with mkdir(2), and the children (heyoka's Python, the scaling points) run
+!! without a shell, so no path or option reaches one. heyoka's rows come back through a
+!! scratch file that is read as strictly as `--summarize` reads: the CSV files and the
+!! `--reference` file are checked field by field (`read_bench_csv`, `reference_for`).
 module holosym_cli_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS
+    use holosym_status, only: holosym_status_t, int_str, real_str, status_code_name, &
+        HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_benchmark, only: bench_row_t, bench_settings_t, reference_state, holosym_run, &
         sweep_holosym, sweep_rattle, variant_name, bench_span, bench_targets, variant_count, &
         rattle_families, rattle_orders, target_in_precision
     use holosym_cli_common, only: parsed_command_proceeds, &
-        cli_argument_t, split_option, option_value, parse_integer, &
+        cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
-    use holosym_systems, only: make_system, system_choices
+    use holosym_systems, only: make_system, system_choices, max_links
+    use holosym_output, only: output_t, open_output, make_directories, remove_file, &
+        run_program, command_text, text_t, read_text_file, append_text
     use holosym_bench_scaling, only: scaling_point, scaling_links, scaling_header, &
         general_links_limit
     use holosym_bench_long, only: run_long
-    use holosym_bench_report, only: scaling_section, long_section
+    use holosym_bench_report, only: scaling_section, long_section, check_report_files
     implicit none
     private
 
@@ -38,6 +47,13 @@ module holosym_cli_bench
     !> Per-step comparison: spherical pendulum, h = 1/8, T = 10, at (2,1,3) and (7,6,8).
     real(wp), parameter :: per_step_h = 0.125_wp
     integer, parameter :: per_step_configs(3, 2) = reshape([2, 1, 3, 7, 6, 8], [3, 2])
+    !> Largest --budget, in CPU seconds per run.
+    real(wp), parameter :: max_budget = 3600
+    !> Largest time of a run read back from a CSV file (a bound that keeps ratios finite).
+    real(wp), parameter :: max_seconds = 1.0e12_wp
+    !> A reference file's start q0, p0 must be the system's within this many epsilon
+    !! (relative to max(1, |value|)): the real64 build reads the real128 file's digits.
+    real(wp), parameter :: start_tolerance = 1024
     !> Largest step of the sweeps.
     real(wp), parameter :: sweep_h0 = 1
     !> Method of a per-step row: this prefix and the option set 0 .. variant_count.
@@ -103,8 +119,8 @@ contains
             "  --scaling        instead: chain of K pendula, K = 1..256, (4,3,5), h = 0.01:", &
             "                   cost per step, peak memory, reduced and general paths", &
             "                   (DIR/scaling.csv, scaling64.csv in the real64 build)", &
-            "  --scaling-point K  one point of --scaling: its CSV line (--general: the", &
-            "                   general path)", &
+            "  --scaling-point K  one point of --scaling (K = 1..100000): its CSV line", &
+            "                   (--general: the general path)", &
             "  --long           instead: long runs (planar T = 1e4, 1e5, spherical 1e4) to", &
             "                   errors 1e-20 and 1e-24 (DIR/long.csv; about an hour;", &
             "                   --quick: T = 20 and 10)", &
@@ -170,25 +186,20 @@ contains
                 case ("--heyoka")
                     options%heyoka = value
                 case ("--scaling-point")
-                    call parse_integer(name, value, options%scaling_point, status)
-                    if (status%ok() .and. options%scaling_point < 1) call fail(status, &
-                        "option --scaling-point must be >= 1; got '" // value // "'")
+                    call parse_integer_in(name, value, 1, max_links, options%scaling_point, &
+                                          status)
                 case ("--systems")
                     options%systems = value
                     call check_systems(value, status)
                 case ("--Mmax")
-                    call parse_integer(name, value, options%max_m, status)
-                    if (status%ok() .and. (options%max_m < 1 .or. options%max_m > 12)) &
-                        call fail(status, "option --Mmax must be in 1..12; got '" // value // "'")
+                    call parse_integer_in(name, value, 1, 12, options%max_m, status)
                 case ("--order")
-                    call parse_integer(name, value, options%max_rattle_order, status)
-                    if (status%ok() .and. (options%max_rattle_order < 2 .or. &
-                        options%max_rattle_order > 10)) call fail(status, &
-                        "option --order must be in 2..10; got '" // value // "'")
+                    call parse_integer_in(name, value, 2, 10, options%max_rattle_order, status)
                 case ("--budget")
                     call parse_real(name, value, budget, status)
-                    if (status%ok() .and. .not. budget > 0) call fail(status, &
-                        "option --budget must be > 0; got '" // value // "'")
+                    if (status%ok() .and. .not. (budget > 0 .and. budget <= max_budget)) &
+                        call fail(status, "option --budget must be in (0, 3600]; got '" // &
+                        value // "'")
                     options%budget = real(budget, real64)
                 end select
                 if (.not. status%ok()) return
@@ -253,33 +264,33 @@ contains
     end function int64_str
 
     !> Write rows as CSV (the header line, then one line per row), the format
-    !! `read_bench_csv` reads. Failure: HOLOSYM_INVALID_ARGUMENT naming the file.
+    !! `read_bench_csv` reads. Failure: HOLOSYM_INVALID_ARGUMENT naming the file and the
+    !! system's reason (also a full disk).
     subroutine write_bench_csv(path, rows, status)
         character(len=*), intent(in) :: path        !! file, replaced
         type(bench_row_t), intent(in) :: rows(:)    !! rows to write
         type(holosym_status_t), intent(inout) :: status !! I/O failure
-        integer :: unit, ios, i
-        character(len=256) :: message
-        open (newunit=unit, file=path, status="replace", action="write", iostat=ios, &
-              iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // path // ": " // trim(message))
-            return
-        end if
-        write (unit, '(a)', iostat=ios, iomsg=message) csv_header
+        type(output_t) :: file
+        integer :: i
+        call open_output(path, file, status)
+        if (.not. status%ok()) return
+        call file%line(csv_header)
         do i = 1, size(rows)
-            if (ios /= 0) exit
-            write (unit, '(a)', iostat=ios, iomsg=message) csv_line(rows(i))
+            call file%line(csv_line(rows(i)))
         end do
-        close (unit)
-        if (ios /= 0) call fail(status, "cannot write " // path // ": " // trim(message))
+        call file%close(status)
     end subroutine write_bench_csv
 
-    !> Read rows written by `write_bench_csv` and append them to `rows`. A missing file
-    !! gives no rows and no error when `optional_file`. Failure (HOLOSYM_INVALID_ARGUMENT:
-    !! an unreadable file, no bench header, a line without 23 fields, a field that is not a
-    !! number, a per-step row whose method is not variant-0 .. variant-9) names the file,
-    !! the line and the field; `rows` is then unchanged.
+    !> Read rows written by `write_bench_csv` (or by tools/heyoka_bench.py) and append them
+    !! to `rows`. A missing file gives no rows and no error when `optional_file`. Failure
+    !! (HOLOSYM_INVALID_ARGUMENT: an unreadable file or one that is not text, no bench
+    !! header, a line without 23 fields, a field that is not a number or out of its range)
+    !! names the file, the line and the field; `rows` is then unchanged. Ranges: system
+    !! one of the benchmark's, precision real128 or real64, method holosym, holosym-plain,
+    !! rattle-<family>, heyoka or variant-0 .. variant-9; finite reals (no NaN or Inf, no
+    !! magnitude beyond the working precision); h > 0; M, N, G, order, steps, the errors,
+    !! the work counts and the difference >= 0; seconds, seconds per step and compile
+    !! seconds in [0, 1e12]; tolerance in [0, 1); status a documented code.
     subroutine read_bench_csv(path, rows, status, optional_file)
         character(len=*), intent(in) :: path !! CSV file
         type(bench_row_t), allocatable, intent(inout) :: rows(:) !! rows are appended
@@ -292,13 +303,12 @@ contains
             "newton_iterations", "residual_evaluations", "gradient_evaluations", &
             "hessian_evaluations", "lu_factorizations", "status", "difference_from_plain", &
             "tolerance", "compile_seconds"]
-        character(len=2048) :: line
-        character(len=256) :: message
-        character(len=64) :: fields(field_count)
+        type(text_t), allocatable :: lines(:), fields(:)
         type(bench_row_t), allocatable :: read_rows(:)
         type(bench_row_t) :: row
+        type(holosym_status_t) :: local
         real(wp) :: value
-        integer :: unit, ios, first, k, comma, line_number
+        integer :: line_number, count
         logical :: exists
         inquire (file=path, exist=exists)
         if (.not. exists) then
@@ -308,108 +318,198 @@ contains
             call fail(status, "cannot read " // path // ": no such file")
             return
         end if
-        open (newunit=unit, file=path, status="old", action="read", iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot read " // path // ": " // trim(message))
+        call read_text_file(path, lines, local)
+        if (.not. local%ok()) then
+            call fail(status, local%message)
             return
         end if
-        allocate (read_rows(0))
+        allocate (read_rows(size(lines)))
+        count = 0
         line_number = 1
-        read (unit, '(a)', iostat=ios) line
-        if (ios /= 0 .or. trim(line) /= csv_header) then
+        if (size(lines) == 0) then
             call bad_line("not the header of a bench CSV file")
             return
         end if
-        do
-            read (unit, '(a)', iostat=ios) line
-            if (ios /= 0) exit
-            line_number = line_number + 1
-            ! Split at the commas; k ends as the number of fields found (at most 23).
-            first = 1
-            do k = 1, field_count
-                comma = index(line(first:), ",")
-                if (comma == 0) then
-                    fields(k) = line(first:)
-                    exit
-                end if
-                fields(k) = line(first:first + comma - 2)
-                first = first + comma
-            end do
-            if (k /= field_count) then
-                call bad_line("expected " // int_str(field_count) // " comma-separated fields")
+        if (lines(1)%text /= csv_header) then
+            call bad_line("not the header of a bench CSV file")
+            return
+        end if
+        do line_number = 2, size(lines)
+            call split_fields(lines(line_number)%text, fields)
+            if (size(fields) /= field_count) then
+                call bad_line("expected " // int_str(field_count) // &
+                    " comma-separated fields; got " // int_str(size(fields)))
                 return
             end if
-            row%system = fields(1)
-            row%method = fields(2)
-            row%precision = fields(3)
-            read (fields(4), *, iostat=ios) row%order_m
-            if (.not. field_ok(4)) return
-            read (fields(5), *, iostat=ios) row%order_n
-            if (.not. field_ok(5)) return
-            read (fields(6), *, iostat=ios) row%gauss_points
-            if (.not. field_ok(6)) return
-            read (fields(7), *, iostat=ios) row%order
-            if (.not. field_ok(7)) return
-            read (fields(8), *, iostat=ios) row%h
-            if (.not. field_ok(8)) return
-            read (fields(9), *, iostat=ios) row%steps
-            if (.not. field_ok(9)) return
-            read (fields(10), *, iostat=ios) row%error
-            if (.not. field_ok(10)) return
-            read (fields(11), *, iostat=ios) row%energy_error
-            if (.not. field_ok(11)) return
-            read (fields(12), *, iostat=ios) row%constraint_residual
-            if (.not. field_ok(12)) return
-            read (fields(13), *, iostat=ios) value
-            if (.not. field_ok(13)) return
+            row = bench_row_t()
+            if (.not. name_field(1, row%system)) return
+            if (.not. name_field(2, row%method)) return
+            if (.not. name_field(3, row%precision)) return
+            if (.not. any(bench_systems == fields(1)%text)) then
+                call bad_line("field system is not one of pendulum, linkage, planar: '" // &
+                    fields(1)%text // "'")
+                return
+            end if
+            if (.not. known_method(fields(2)%text)) then
+                call bad_line("method '" // fields(2)%text // "' is not holosym, " // &
+                    "holosym-plain, rattle-<family>, heyoka or " // variant_prefix // "0 .. " &
+                    // variant_prefix // int_str(variant_count))
+                return
+            end if
+            if (fields(3)%text /= "real128" .and. fields(3)%text /= "real64") then
+                call bad_line("field precision is not real128 or real64: '" // &
+                    fields(3)%text // "'")
+                return
+            end if
+            if (.not. integer_field(4, 0, row%order_m)) return
+            if (.not. integer_field(5, 0, row%order_n)) return
+            if (.not. integer_field(6, 0, row%gauss_points)) return
+            if (.not. integer_field(7, 0, row%order)) return
+            if (.not. real_field(8, row%h, .true.)) return
+            if (.not. integer_field(9, 0, row%steps)) return
+            if (.not. real_field(10, row%error)) return
+            if (.not. real_field(11, row%energy_error)) return
+            if (.not. real_field(12, row%constraint_residual)) return
+            if (.not. real_field(13, value)) return
+            if (.not. seconds_ok(13, value)) return
             row%seconds = real(value, real64)
-            read (fields(15), *, iostat=ios) row%newton_iterations
-            if (.not. field_ok(15)) return
-            read (fields(16), *, iostat=ios) row%residuals
-            if (.not. field_ok(16)) return
-            read (fields(17), *, iostat=ios) row%gradients
-            if (.not. field_ok(17)) return
-            read (fields(18), *, iostat=ios) row%hessians
-            if (.not. field_ok(18)) return
-            read (fields(19), *, iostat=ios) row%factorizations
-            if (.not. field_ok(19)) return
-            read (fields(20), *, iostat=ios) row%code
-            if (.not. field_ok(20)) return
-            read (fields(21), *, iostat=ios) row%difference
-            if (.not. field_ok(21)) return
-            read (fields(22), *, iostat=ios) row%tolerance
-            if (.not. field_ok(22)) return
-            read (fields(23), *, iostat=ios) value
-            if (.not. field_ok(23)) return
-            row%compile_seconds = real(value, real64)
-            if (index(row%method, variant_prefix) == 1 .and. step_variant(row%method) < 0) then
-                call bad_line("method '" // trim(row%method) // "' is not " // variant_prefix &
-                    // "0 .. " // variant_prefix // int_str(variant_count))
+            if (.not. real_field(14, value)) return
+            if (.not. seconds_ok(14, value)) return
+            if (.not. count_field(15, row%newton_iterations)) return
+            if (.not. count_field(16, row%residuals)) return
+            if (.not. count_field(17, row%gradients)) return
+            if (.not. count_field(18, row%hessians)) return
+            if (.not. count_field(19, row%factorizations)) return
+            if (.not. integer_field(20, -huge(1), row%code)) return
+            if (status_code_name(row%code) == "unknown status") then
+                call bad_line("field status is not a holosym status code: '" // &
+                    fields(20)%text // "'")
                 return
             end if
-            read_rows = [read_rows, row]
+            if (.not. real_field(21, row%difference)) return
+            if (.not. real_field(22, row%tolerance)) return
+            if (.not. row%tolerance < 1) then
+                call bad_line("field tolerance is not in [0, 1): '" // fields(22)%text // "'")
+                return
+            end if
+            if (.not. real_field(23, value)) return
+            if (.not. seconds_ok(23, value)) return
+            row%compile_seconds = real(value, real64)
+            count = count + 1
+            read_rows(count) = row
         end do
-        close (unit)
-        rows = [rows, read_rows]
+        rows = [rows, read_rows(:count)]
 
     contains
 
-        !> Whether the field just read was a number; if not, fail naming it.
-        logical function field_ok(k)
-            integer, intent(in) :: k !! field index
-            field_ok = ios == 0
-            if (.not. field_ok) call bad_line("field " // trim(field_names(k)) // &
-                " is not a number: '" // trim(fields(k)) // "'")
-        end function field_ok
+        !> Field k into a text field of the row, or fail when it is empty or too long.
+        logical function name_field(k, value) result(ok)
+            integer, intent(in) :: k
+            character(len=*), intent(out) :: value
+            ok = len(fields(k)%text) >= 1 .and. len(fields(k)%text) <= len(value)
+            value = ""
+            if (ok) then
+                value = fields(k)%text
+            else
+                call bad_line("field " // trim(field_names(k)) // " is empty or longer " // &
+                    "than " // int_str(len(value)) // " characters")
+            end if
+        end function name_field
 
-        !> Fail naming the file and line; close the file.
+        !> Field k as an integer >= lower, or fail naming it.
+        logical function integer_field(k, lower, value) result(ok)
+            integer, intent(in) :: k, lower
+            integer, intent(out) :: value
+            call parse_integer(trim(field_names(k)), fields(k)%text, value, local)
+            ok = local%ok()
+            if (ok) ok = value >= lower
+            if (.not. ok) call bad_line("field " // trim(field_names(k)) // " is not " // &
+                merge("an integer >= 0", "an integer     ", lower == 0) // ": '" // &
+                fields(k)%text // "'")
+        end function integer_field
+
+        !> Field k as a count (an int64 >= 0), or fail naming it.
+        logical function count_field(k, value) result(ok)
+            integer, intent(in) :: k
+            integer(int64), intent(out) :: value
+            integer :: ios
+            value = 0
+            ok = len(fields(k)%text) >= 1 .and. len(fields(k)%text) <= 18
+            if (ok) ok = verify(fields(k)%text, "0123456789") == 0
+            if (ok) then
+                read (fields(k)%text, *, iostat=ios) value
+                ok = ios == 0
+            end if
+            if (.not. ok) call bad_line("field " // trim(field_names(k)) // &
+                " is not a count >= 0: '" // fields(k)%text // "'")
+        end function count_field
+
+        !> Field k as a finite real >= 0 (> 0 with `positive`), or fail naming it.
+        logical function real_field(k, value, positive) result(ok)
+            integer, intent(in) :: k
+            real(wp), intent(out) :: value
+            logical, intent(in), optional :: positive
+            logical :: strict
+            strict = .false.
+            if (present(positive)) strict = positive
+            call parse_real(trim(field_names(k)), fields(k)%text, value, local)
+            ok = local%ok()
+            if (ok) ok = value >= 0
+            if (ok .and. strict) ok = value > 0
+            if (.not. ok) call bad_line("field " // trim(field_names(k)) // " is not a " // &
+                merge("number > 0 ", "number >= 0", strict) // ": '" // fields(k)%text // "'")
+        end function real_field
+
+        !> Seconds of field k at most `max_seconds`, or fail naming it.
+        logical function seconds_ok(k, value) result(ok)
+            integer, intent(in) :: k
+            real(wp), intent(in) :: value
+            ok = value <= max_seconds
+            if (.not. ok) call bad_line("field " // trim(field_names(k)) // " is more than " &
+                // "1e12 seconds: '" // fields(k)%text // "'")
+        end function seconds_ok
+
+        !> Fail naming the file and line.
         subroutine bad_line(reason)
             character(len=*), intent(in) :: reason !! what is wrong with the line
             call fail(status, path // ": line " // int_str(line_number) // ": " // reason)
-            close (unit)
         end subroutine bad_line
 
     end subroutine read_bench_csv
+
+    !> Whether `method` is one a bench CSV file may hold: holosym, holosym-plain, heyoka,
+    !! rattle-<one of the composition families>, or a per-step option set variant-k.
+    pure logical function known_method(method)
+        character(len=*), intent(in) :: method
+        integer :: family
+        known_method = method == "holosym" .or. method == "holosym-plain" .or. &
+            method == "heyoka" .or. step_variant(method) >= 0
+        do family = 1, size(rattle_families)
+            if (method == "rattle-" // trim(rattle_families(family))) known_method = .true.
+        end do
+    end function known_method
+
+    !> The comma-separated fields of a line, each as given (blanks kept).
+    pure subroutine split_fields(line, fields)
+        character(len=*), intent(in) :: line
+        type(text_t), allocatable, intent(out) :: fields(:)
+        integer :: count, first, comma, k
+        count = 1
+        do k = 1, len(line)
+            if (line(k:k) == ",") count = count + 1
+        end do
+        allocate (fields(count))
+        first = 1
+        do k = 1, count
+            comma = index(line(first:), ",")
+            if (comma == 0) then
+                fields(k)%text = line(first:)
+            else
+                fields(k)%text = line(first:first + comma - 2)
+                first = first + comma
+            end if
+        end do
+    end subroutine split_fields
 
     !> The option set k of a per-step row's method "variant-k", or -1 when the method is
     !! not one of variant-0 .. variant-<variant_count>.
@@ -422,46 +522,110 @@ contains
         if (ios /= 0 .or. step_variant < 0 .or. step_variant > variant_count) step_variant = -1
     end function step_variant
 
-    !> Reference states: read "system,q or p,index,value" lines, or compute and write them.
-    subroutine reference_for(system, sys, q0, p0, options, q_ref, p_ref, err_unit, status)
+    !> Reference states of `system`: read from the --reference file, or computed (M = 8 at
+    !! h and h/2) and written to DIR/reference.csv with the start (the lines of the
+    !! systems run before are kept in `written`).
+    !!
+    !! A file to read has lines `system,kind,index,value` (blank lines and lines starting
+    !! with '#' are skipped; every other line has exactly these 4 fields). For `system`:
+    !! kind is q, p (the state at T) or q0, p0 (the start); the index is in 1..n; each
+    !! (kind, index) appears at most once, with a finite value; every index of q and of p
+    !! must be there. q0 and p0 are optional as a pair: absent, or both complete, and then
+    !! equal to the system's own start (within `start_tolerance` epsilon: a reference of
+    !! another start would make every error meaningless); with --heyoka they are required
+    !! (heyoka starts from them). Lines of other systems are not read further. Failure
+    !! (HOLOSYM_INVALID_ARGUMENT) names the file, the line and what is wrong.
+    subroutine reference_for(system, sys, q0, p0, options, q_ref, p_ref, written, err_unit, &
+                             status)
         character(len=*), intent(in) :: system
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q0(:), p0(:)
         type(bench_options_t), intent(in) :: options
         real(wp), intent(out) :: q_ref(:), p_ref(:)
+        type(text_t), allocatable, intent(inout) :: written(:) !! lines of DIR/reference.csv
         integer, intent(in) :: err_unit
         type(holosym_status_t), intent(inout) :: status
-        character(len=256) :: line
-        character(len=16) :: name, kind
-        integer :: unit, ios, index_value, found, k, system_index
+        character(len=*), parameter :: kinds(4) = [character(len=2) :: "q", "p", "q0", "p0"]
+        type(text_t), allocatable :: lines(:), fields(:)
+        logical :: seen(size(q_ref), 4)
+        real(wp) :: values(size(q_ref), 4)
+        integer :: index_value, k, system_index, line_number, kind
         real(wp) :: value, change
-        character(len=256) :: message
+        type(holosym_status_t) :: local
         if (len(options%reference) > 0) then
-            open (newunit=unit, file=options%reference, status="old", action="read", iostat=ios)
-            if (ios /= 0) then
-                call fail(status, "cannot read reference file " // options%reference)
+            call read_text_file(options%reference, lines, local)
+            if (.not. local%ok()) then
+                call fail(status, "cannot read reference file: " // local%message)
                 return
             end if
-            found = 0
-            do
-                read (unit, '(a)', iostat=ios) line
-                if (ios /= 0) exit
-                do k = 1, len_trim(line)
-                    if (line(k:k) == ",") line(k:k) = " "
-                end do
-                read (line, *, iostat=ios) name, kind, index_value, value
-                if (ios /= 0 .or. trim(name) /= system) cycle
-                if (index_value < 1 .or. index_value > size(q_ref)) cycle
-                if (kind == "q") q_ref(index_value) = value
-                if (kind == "p") p_ref(index_value) = value
-                if (kind == "q" .or. kind == "p") found = found + 1
+            seen = .false.
+            values = 0
+            do line_number = 1, size(lines)
+                if (len_trim(lines(line_number)%text) == 0) cycle
+                if (lines(line_number)%text(1:1) == "#") cycle
+                call split_fields(lines(line_number)%text, fields)
+                if (size(fields) /= 4) then
+                    call bad("expected 4 comma-separated fields: system,q0|p0|q|p,index,value")
+                    return
+                end if
+                if (fields(1)%text /= system) cycle
+                kind = position_of(kinds, fields(2)%text)
+                if (kind == 0) then
+                    call bad("the second field must be q0, p0, q or p; got '" // &
+                        fields(2)%text // "'")
+                    return
+                end if
+                call parse_integer("index", fields(3)%text, index_value, local)
+                if (.not. local%ok()) index_value = 0
+                if (index_value < 1 .or. index_value > size(q_ref)) then
+                    call bad("index must be in 1.." // int_str(size(q_ref)) // " for " // &
+                        system // "; got '" // fields(3)%text // "'")
+                    return
+                end if
+                if (seen(index_value, kind)) then
+                    call bad(fields(2)%text // "(" // fields(3)%text // ") of " // system // &
+                        " given twice")
+                    return
+                end if
+                call parse_real("value", fields(4)%text, value, local)
+                if (.not. local%ok()) then
+                    call bad("the value is not a finite number: '" // fields(4)%text // "'")
+                    return
+                end if
+                if (kind >= 3) then
+                    associate (start => merge(q0(index_value), p0(index_value), kind == 3))
+                        if (.not. abs(value - start) <= start_tolerance * epsilon(1.0_wp) * &
+                            max(1.0_wp, abs(start))) then
+                            call bad(fields(2)%text // "(" // fields(3)%text // ") of " // &
+                                system // " is " // fields(4)%text // ", but the system " // &
+                                "starts at " // trim(real_str(start)) // ": a reference " // &
+                                "of another start")
+                            return
+                        end if
+                    end associate
+                end if
+                seen(index_value, kind) = .true.
+                values(index_value, kind) = value
             end do
-            close (unit)
-            if (found /= 2 * size(q_ref)) call fail(status, "reference file " // &
-                options%reference // " lacks system " // system)
+            do kind = 1, 4
+                if (kind >= 3 .and. .not. (any(seen(:, 3:4)) .or. len(options%heyoka) > 0)) &
+                    exit
+                do k = 1, size(q_ref)
+                    if (.not. seen(k, kind)) then
+                        call fail(status, "reference file " // options%reference // &
+                            " lacks " // trim(kinds(kind)) // "(" // int_str(k) // &
+                            ") of system " // system)
+                        if (kind >= 3 .and. .not. any(seen(:, 3:4))) status%message = &
+                            status%message // " (--heyoka starts from q0, p0)"
+                        return
+                    end if
+                end do
+            end do
+            q_ref = values(:, 1)
+            p_ref = values(:, 2)
             return
         end if
-        system_index = findloc(bench_systems, system, dim=1)
+        system_index = position_of(bench_systems, system)
         call reference_state(sys, q0, p0, bench_span(system), reference_steps(system_index), &
                              q_ref, p_ref, change, status)
         if (.not. status%ok()) return
@@ -469,31 +633,67 @@ contains
             // real_str(reference_steps(system_index) / 2) // "; it differs from h = " // &
             real_str(reference_steps(system_index)) // " by " // real_str(change) // &
             ", so its own error is about " // real_str(change / (2.0_wp**16 - 1))
-        open (newunit=unit, file=options%out_dir // "/reference.csv", position="append", &
-              action="write", iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // options%out_dir // "/reference.csv: " // &
-                trim(message))
-            return
-        end if
         do k = 1, size(q0)
-            write (unit, '(a)') system // ",q0," // int_str(k) // "," // csv_real(q0(k))
+            call add(system // ",q0," // int_str(k) // "," // csv_real(q0(k)))
         end do
         do k = 1, size(p0)
-            write (unit, '(a)') system // ",p0," // int_str(k) // "," // csv_real(p0(k))
+            call add(system // ",p0," // int_str(k) // "," // csv_real(p0(k)))
         end do
         do k = 1, size(q_ref)
-            write (unit, '(a)') system // ",q," // int_str(k) // "," // csv_real(q_ref(k))
+            call add(system // ",q," // int_str(k) // "," // csv_real(q_ref(k)))
         end do
         do k = 1, size(p_ref)
-            write (unit, '(a)') system // ",p," // int_str(k) // "," // csv_real(p_ref(k))
+            call add(system // ",p," // int_str(k) // "," // csv_real(p_ref(k)))
         end do
-        write (unit, '(a)') "# " // system // ": M = 8, h = " // &
-            real_str(reference_steps(system_index)) // " and h/2 differ by " // &
-            real_str(change) // "; estimated error of the h/2 run " // &
-            real_str(change / (2.0_wp**16 - 1))
-        close (unit)
+        call add("# " // system // ": M = 8, h = " // real_str(reference_steps(system_index)) &
+            // " and h/2 differ by " // real_str(change) // "; estimated error of the h/2 " &
+            // "run " // real_str(change / (2.0_wp**16 - 1)))
+        call write_lines(options%out_dir // "/reference.csv", written, status)
+
+    contains
+
+        !> Fail naming the reference file and the line.
+        subroutine bad(reason)
+            character(len=*), intent(in) :: reason
+            call fail(status, options%reference // ": line " // int_str(line_number) // &
+                ": " // reason)
+        end subroutine bad
+
+        subroutine add(line)
+            character(len=*), intent(in) :: line
+            call append_text(written, line)
+        end subroutine add
+
     end subroutine reference_for
+
+    !> The index of `name` in `names` (trailing blanks ignored), 0 if absent.
+    pure integer function position_of(names, name) result(position)
+        character(len=*), intent(in) :: names(:), name
+        integer :: k
+        position = 0
+        do k = 1, size(names)
+            if (names(k) == name) then
+                position = k
+                return
+            end if
+        end do
+    end function position_of
+
+    !> Write `lines` to `path` (replaced) through `output_t`. Failure:
+    !! HOLOSYM_INVALID_ARGUMENT naming the file and the system's reason.
+    subroutine write_lines(path, lines, status)
+        character(len=*), intent(in) :: path
+        type(text_t), intent(in) :: lines(:)
+        type(holosym_status_t), intent(inout) :: status
+        type(output_t) :: file
+        integer :: k
+        call open_output(path, file, status)
+        if (.not. status%ok()) return
+        do k = 1, size(lines)
+            call file%line(lines(k)%text)
+        end do
+        call file%close(status)
+    end subroutine write_lines
 
     !> Run the benchmark.
     subroutine run_bench(options, err_unit, rows, steps_rows, status)
@@ -506,32 +706,30 @@ contains
         real(wp), allocatable :: q_plain(:), p_plain(:)
         type(bench_settings_t) :: settings, loose
         type(bench_row_t) :: row
+        type(bench_row_t), allocatable :: heyoka_rows(:)
         type(holosym_status_t) :: run_status
+        type(text_t), allocatable :: reference_lines(:)
         !> Newton tolerances of the extra real128 sweeps of holosym (M = 2..8, G = M + 1):
         !! 1e-12 is met by the real64 iterations alone (no real128 residual), the others
         !! stop the real128 iterations early.
         real(wp), parameter :: loose_tolerances(3) = [1.0e-12_wp, 1.0e-18_wp, 1.0e-24_wp]
         integer :: tolerance
-        integer :: s, order_m, gauss_points, family, variant, config, ios, exit_code
-        character(len=256) :: message
-        character(len=:), allocatable :: heyoka_csv, command
-        allocate (rows(0), steps_rows(0))
+        integer :: s, order_m, gauss_points, family, variant, config
+        character(len=:), allocatable :: heyoka_csv
+        allocate (rows(0), steps_rows(0), heyoka_rows(0))
         heyoka_csv = options%out_dir // "/" // trim(merge("heyoka64.csv", "heyoka.csv  ", &
                                                           wp_is_double))
-        if (len(options%heyoka) > 0) call execute_command_line("rm -f '" // heyoka_csv // "'")
+        ! The rows of an earlier run must not pass for this run's.
+        if (len(options%heyoka) > 0) call remove_file(heyoka_csv, status)
+        if (.not. status%ok()) return
         settings%budget = options%budget
         settings%progress_unit = err_unit
+        allocate (reference_lines(0))
         if (len(options%reference) == 0) then
-            open (newunit=s, file=options%out_dir // "/reference.csv", status="replace", &
-                  action="write", iostat=ios, iomsg=message)
-            if (ios /= 0) then
-                call fail(status, "cannot write " // options%out_dir // "/reference.csv: " &
-                    // trim(message))
-                return
-            end if
-            write (s, '(a)') "# initial states q0, p0 and reference states q(T), p(T): " // &
-                "system,q0|p0|q|p,index,value"
-            close (s)
+            call append_text(reference_lines, "# initial states q0, p0 and reference " // &
+                "states q(T), p(T): system,q0|p0|q|p,index,value")
+            call write_lines(options%out_dir // "/reference.csv", reference_lines, status)
+            if (.not. status%ok()) return
         end if
         do s = 1, size(bench_systems)
             if (.not. selected(options%systems, bench_systems(s))) cycle
@@ -540,7 +738,7 @@ contains
             allocate (q_ref(size(q0)), p_ref(size(p0)), q_end(size(q0)), p_end(size(p0)), &
                       q_plain(size(q0)), p_plain(size(p0)))
             call reference_for(trim(bench_systems(s)), sys, q0, p0, options, q_ref, p_ref, &
-                               err_unit, status)
+                               reference_lines, err_unit, status)
             if (.not. status%ok()) return
             if (options%per_step .and. bench_systems(s) == "pendulum") then
                 do config = 1, size(per_step_configs, 2)
@@ -587,23 +785,75 @@ contains
                     trim(rattle_families(family)), sweep_h0, q_ref, p_ref, settings, rows)
             end do
             if (len(options%heyoka) > 0) then
-                command = "'" // options%heyoka // "' " // heyoka_script // " sweep --system " &
-                    // trim(bench_systems(s)) // " --precision " // &
-                    trim(merge("real64 ", "real128", wp_is_double)) // " --reference '" // &
-                    reference_path(options) // "' --out '" // heyoka_csv // "' --budget " // &
-                    trim(real_str(real(options%budget, wp)))
-                if (options%quick) command = command // " --quick"
-                write (err_unit, '(a)') "bench: " // command
-                call execute_command_line(command, exitstat=exit_code)
-                if (exit_code /= 0) then
-                    call fail(status, "the heyoka sweep failed (exit status " // &
-                        int_str(exit_code) // "): " // command)
-                    return
-                end if
+                call heyoka_sweep(options, trim(bench_systems(s)), heyoka_csv, err_unit, &
+                                  heyoka_rows, status)
+                if (.not. status%ok()) return
             end if
             deallocate (q_ref, p_ref, q_end, p_end, q_plain, p_plain)
         end do
     end subroutine run_bench
+
+    !> heyoka's sweep of one system: tools/heyoka_bench.py run (without a shell) with the
+    !! --heyoka Python, its rows written to a scratch file, read back strictly (bench CSV,
+    !! method heyoka, this system and precision), added to `rows` and the whole of `rows`
+    !! written to `csv` through `output_t`.
+    subroutine heyoka_sweep(options, system, csv, err_unit, rows, status)
+        type(bench_options_t), intent(in) :: options
+        character(len=*), intent(in) :: system, csv
+        integer, intent(in) :: err_unit
+        type(bench_row_t), allocatable, intent(inout) :: rows(:) !! heyoka's rows so far
+        type(holosym_status_t), intent(inout) :: status
+        type(text_t), allocatable :: argv(:)
+        type(bench_row_t), allocatable :: new_rows(:)
+        character(len=:), allocatable :: part, precision
+        integer :: exit_code, k
+        part = csv // ".part"
+        precision = trim(merge("real64 ", "real128", wp_is_double))
+        call remove_file(part, status)
+        if (.not. status%ok()) return
+        allocate (argv(0))
+        call append_text(argv, options%heyoka)
+        call append_text(argv, heyoka_script)
+        call append_text(argv, "sweep")
+        call append_text(argv, "--system")
+        call append_text(argv, system)
+        call append_text(argv, "--precision")
+        call append_text(argv, precision)
+        call append_text(argv, "--reference")
+        call append_text(argv, reference_path(options))
+        call append_text(argv, "--out")
+        call append_text(argv, part)
+        call append_text(argv, "--budget")
+        call append_text(argv, trim(real_str(real(options%budget, wp))))
+        if (options%quick) call append_text(argv, "--quick")
+        write (err_unit, '(a)') "bench: " // command_text(argv)
+        call run_program(argv, "", exit_code, status)
+        if (.not. status%ok()) then
+            status%message = "the heyoka sweep could not be started: " // status%message
+            return
+        end if
+        if (exit_code /= 0) then
+            call fail(status, "the heyoka sweep failed (exit status " // int_str(exit_code) // &
+                "): " // command_text(argv))
+            return
+        end if
+        allocate (new_rows(0))
+        call read_bench_csv(part, new_rows, status)
+        if (.not. status%ok()) return
+        do k = 1, size(new_rows)
+            if (new_rows(k)%method /= "heyoka" .or. new_rows(k)%system /= system .or. &
+                new_rows(k)%precision /= precision) then
+                call fail(status, part // ": line " // int_str(k + 1) // ": a row of " // &
+                    trim(new_rows(k)%method) // ", " // trim(new_rows(k)%system) // ", " // &
+                    trim(new_rows(k)%precision) // "; the heyoka sweep of " // system // &
+                    " in " // precision // " should give only its own")
+                return
+            end if
+        end do
+        rows = [rows, new_rows]
+        call write_bench_csv(csv, rows, status)
+        if (status%ok()) call remove_file(part, status)
+    end subroutine heyoka_sweep
 
     !> The reference file of a run: --reference, else DIR/reference.csv.
     function reference_path(options) result(path)
@@ -693,10 +943,10 @@ contains
     !> The Markdown summary: per precision, target and system the cheapest configuration
     !! of holosym, of RATTLE composed inside holosym and of heyoka (index-1 form) reaching
     !! the target, with the ratios of their CPU times and heyoka's whole-run residuals.
-    subroutine write_summary(rows, steps_rows, unit, nested)
+    subroutine write_summary(rows, steps_rows, out, nested)
         type(bench_row_t), intent(in) :: rows(:)       !! sweep rows (any precision, any method)
         type(bench_row_t), intent(in) :: steps_rows(:) !! per-step comparison rows
-        integer, intent(in) :: unit                    !! output unit
+        type(output_t), intent(inout) :: out           !! where the Markdown goes
         logical, intent(in), optional :: nested        !! headings one level down
         integer :: t, s, best, rival, taylor, precision, c, variant, plain
         character(len=:), allocatable :: line, prec, level
@@ -706,9 +956,9 @@ contains
         if (present(nested)) then
             if (nested) level = "##"
         end if
-        write (unit, '(a)') level // " holosym work-precision benchmark"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Error = max(|q - q_ref|, |p - p_ref|) at T against one reference " // &
+        call out%line(level // " holosym work-precision benchmark")
+        call out%line("")
+        call out%line("Error = max(|q - q_ref|, |p - p_ref|) at T against one reference " // &
             "(holosym M = 8 at h = 1/32; reference.csv), the same for every method. CPU " // &
             "seconds on one core, median of 3 for runs under 0.2 s; the cheapest run of " // &
             "each method reaching the target. holosym: default options (real128: also " // &
@@ -716,17 +966,17 @@ contains
             "inside holosym (GNI_COMP's compositions, orders 2-10). heyoka: Taylor method " // &
             "on the index-1 form (tools/heyoka_bench.py), compile time apart; its max " // &
             "residual (max |phi|, |Phi H_p| over the run) and energy error are whole-run. " // &
-            "'x' = the method's time / holosym's (above 1: holosym is faster)."
+            "'x' = the method's time / holosym's (above 1: holosym is faster).")
         do precision = 2, 1, -1
             prec = merge("real128", "real64 ", precision == 2)
             if (.not. any(rows%precision == prec)) cycle
-            write (unit, '(a)') ""
-            write (unit, '(a)') level // "# " // trim(prec)
-            write (unit, '(a)') ""
-            write (unit, '(a)') "| target | system | holosym config | holosym s | " // &
+            call out%line("")
+            call out%line(level // "# " // trim(prec))
+            call out%line("")
+            call out%line("| target | system | holosym config | holosym s | " // &
                 "RATTLE config | RATTLE s | x RATTLE | heyoka config | heyoka s | x heyoka | " &
-                // "heyoka compile s | heyoka max residual | heyoka energy error |"
-            write (unit, '(a)') "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+                // "heyoka compile s | heyoka max residual | heyoka energy error |")
+            call out%line("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
             do t = 1, size(bench_targets)
                 if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
                 do s = 1, size(bench_systems)
@@ -761,18 +1011,18 @@ contains
                     else
                         line = line // "— | — | — | — | — | — |"
                     end if
-                    write (unit, '(a)') line
+                    call out%line(line)
                 end do
             end do
         end do
         if (size(steps_rows) == 0) return
-        write (unit, '(a)') ""
-        write (unit, '(a)') level // "# Per-step cost of the speed options " // &
-            "(spherical pendulum, h = 1/8, T = 10)"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| (M,N,G) | option set | s / step | x plain | Newton it. / step" // &
-            " | LU / step | gradients / step | max diff. from plain at T |"
-        write (unit, '(a)') "|---|---|---|---|---|---|---|---|"
+        call out%line("")
+        call out%line(level // "# Per-step cost of the speed options " // &
+            "(spherical pendulum, h = 1/8, T = 10)")
+        call out%line("")
+        call out%line("| (M,N,G) | option set | s / step | x plain | Newton it. / step" // &
+            " | LU / step | gradients / step | max diff. from plain at T |")
+        call out%line("|---|---|---|---|---|---|---|---|")
         plain = 0
         do c = 1, size(steps_rows)
             variant = step_variant(steps_rows(c)%method)
@@ -782,7 +1032,7 @@ contains
             per_step = steps_rows(c)%seconds / max(steps_rows(c)%steps, 1)
             plain_step = steps_rows(plain)%seconds / max(steps_rows(plain)%steps, 1)
             difference = steps_rows(c)%difference
-            write (unit, '(a)') "| (" // int_str(steps_rows(c)%order_m) // "," // &
+            call out%line("| (" // int_str(steps_rows(c)%order_m) // "," // &
                 int_str(steps_rows(c)%order_n) // "," // int_str(steps_rows(c)%gauss_points) &
                 // ") " // trim(steps_rows(c)%precision) // " | " // variant_name(variant) // &
                 " | " // seconds_text(per_step) // &
@@ -791,7 +1041,7 @@ contains
                            steps_rows(c)%steps) // " | " // &
                 ratio_text(real(steps_rows(c)%factorizations, real64) / steps_rows(c)%steps) &
                 // " | " // ratio_text(real(steps_rows(c)%gradients, real64) / &
-                steps_rows(c)%steps) // " | " // trim(real_str(difference)) // " |"
+                steps_rows(c)%steps) // " | " // trim(real_str(difference)) // " |")
         end do
     contains
         !> rows(other)%seconds / rows(best)%seconds, or "—" without a holosym row.
@@ -807,30 +1057,29 @@ contains
     end subroutine write_summary
 
     !> `holosym bench [options]`. Exit 0 success, 1 failure, 2 usage.
-    subroutine bench_command(args, out_unit, err_unit, exit_code)
+    subroutine bench_command(args, out, err_unit, exit_code)
         type(cli_argument_t), intent(in) :: args(:) !! the command's arguments
-        integer, intent(in) :: out_unit   !! Markdown summary
+        type(output_t), intent(inout) :: out !! Markdown summary
         integer, intent(in) :: err_unit   !! progress and errors
         integer, intent(out) :: exit_code !! process exit code
         type(bench_options_t) :: options
         type(holosym_status_t) :: status
         type(bench_row_t), allocatable :: rows(:), steps_rows(:), all_rows(:)
         character(len=:), allocatable :: dir, csv_name
-        character(len=256) :: message
-        integer :: unit, ios
+        type(output_t) :: file
 
         call parse_bench_options(args, options, status)
         if (.not. parsed_command_proceeds("bench", status, options%help, bench_help(), &
-                                          out_unit, err_unit, exit_code)) return
+                                          out, err_unit, exit_code)) return
         if (options%scaling_point > 0) then
             call scaling_point(options%scaling_point, options%general, options%quick, &
-                               out_unit, status)
+                               out, status)
             call finish(status)
             return
         end if
         if (options%scaling .or. options%long) then
-            call execute_command_line("mkdir -p '" // options%out_dir // "'")
-            if (options%scaling) call run_scaling(options, err_unit, status)
+            call make_directories(options%out_dir, status)
+            if (options%scaling .and. status%ok()) call run_scaling(options, err_unit, status)
             if (options%long .and. status%ok()) call run_long(options%out_dir, &
                 options%heyoka, options%quick, err_unit, status)
             if (status%ok()) call write_reports(options%out_dir, status)
@@ -841,12 +1090,15 @@ contains
             dir = options%summarize
         else
             dir = options%out_dir
-            call execute_command_line("mkdir -p '" // dir // "'")
-            call run_bench(options, err_unit, rows, steps_rows, status)
+            call make_directories(dir, status)
+            if (status%ok()) call run_bench(options, err_unit, rows, steps_rows, status)
             csv_name = merge("bench64.csv", "bench.csv  ", wp_is_double)
-            if (status%ok()) call write_bench_csv(dir // "/" // trim(csv_name), rows, status)
-            if (status%ok() .and. size(steps_rows) > 0) call write_bench_csv(dir // &
-                "/" // merge("steps64.csv", "steps.csv  ", wp_is_double), steps_rows, status)
+            if (status%ok()) then
+                call write_bench_csv(dir // "/" // trim(csv_name), rows, status)
+                if (status%ok() .and. size(steps_rows) > 0) call write_bench_csv(dir // &
+                    "/" // merge("steps64.csv", "steps.csv  ", wp_is_double), steps_rows, &
+                    status)
+            end if
         end if
         allocate (all_rows(0))
         if (allocated(steps_rows)) deallocate (steps_rows)
@@ -864,18 +1116,13 @@ contains
             exit_code = EXIT_FAILURE
             return
         end if
-        call write_summary(all_rows, steps_rows, out_unit)
-        open (newunit=unit, file=dir // "/summary.md", status="replace", action="write", &
-              iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            write (err_unit, '(a)') "holosym bench: cannot write " // dir // "/summary.md: " &
-                // trim(message)
-            exit_code = EXIT_FAILURE
-            return
+        call write_summary(all_rows, steps_rows, out)
+        call open_output(dir // "/summary.md", file, status)
+        if (status%ok()) then
+            call write_summary(all_rows, steps_rows, file)
+            call file%close(status)
         end if
-        call write_summary(all_rows, steps_rows, unit)
-        close (unit)
-        call write_reports(dir, status)
+        if (status%ok()) call write_reports(dir, status)
         call finish(status)
     contains
         !> Exit code and message of the command.
@@ -895,8 +1142,8 @@ contains
         character(len=*), intent(in) :: dir
         type(holosym_status_t), intent(inout) :: status
         type(bench_row_t), allocatable :: rows(:), steps_rows(:)
-        character(len=256) :: message
-        integer :: unit, ios, k
+        type(output_t) :: file
+        integer :: k
         character(len=12), parameter :: files(4) = [character(len=12) :: "bench.csv", &
             "bench64.csv", "heyoka.csv", "heyoka64.csv"]
         allocate (rows(0), steps_rows(0))
@@ -906,22 +1153,19 @@ contains
         end do
         if (status%ok()) call read_bench_csv(dir // "/steps.csv", steps_rows, status, .true.)
         if (status%ok()) call read_bench_csv(dir // "/steps64.csv", steps_rows, status, .true.)
+        call check_report_files(dir, status)
         if (.not. status%ok()) return
-        open (newunit=unit, file=dir // "/performance.md", status="replace", action="write", &
-              iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // dir // "/performance.md: " // trim(message))
-            return
-        end if
-        call write_performance(dir, rows, steps_rows, unit)
-        close (unit)
+        call open_output(dir // "/performance.md", file, status)
+        if (.not. status%ok()) return
+        call write_performance(dir, rows, steps_rows, file)
+        call file%close(status)
     end subroutine write_reports
 
     !> Verdicts on the speed targets at fixed T: for each precision, target and system,
     !! heyoka's time / holosym's against the required ratio.
     subroutine target_verdicts(rows, unit)
         type(bench_row_t), intent(in) :: rows(:)
-        integer, intent(in) :: unit
+        type(output_t), intent(inout) :: unit !! the page
         integer :: precision, t, s, best, taylor, met, total
         real(real64) :: required, ratio, worst
         character(len=:), allocatable :: prec, smallest
@@ -947,15 +1191,15 @@ contains
                 end do
             end do
             if (total == 0) then
-                write (unit, '(a)') "- " // trim(prec) // ": no heyoka rows (run with --heyoka)."
+                call unit%line("- " // trim(prec) // ": no heyoka rows (run with --heyoka).")
             else
                 smallest = "—"
                 if (worst < huge(1.0_real64)) smallest = ratio_text(worst)
-                write (unit, '(a)') "- " // trim(prec) // " (holosym at least " // &
+                call unit%line("- " // trim(prec) // " (holosym at least " // &
                     ratio_text(required) // "x faster than heyoka wherever heyoka reaches " // &
                     "the target): met at " // int_str(met) // " of " // int_str(total) // &
                     " (target, system) pairs; smallest heyoka / holosym ratio " // smallest // &
-                    " (pairs holosym does not reach count as missed)."
+                    " (pairs holosym does not reach count as missed).")
             end if
         end do
     end subroutine target_verdicts
@@ -965,94 +1209,116 @@ contains
     subroutine write_performance(dir, rows, steps_rows, unit)
         character(len=*), intent(in) :: dir
         type(bench_row_t), intent(in) :: rows(:), steps_rows(:)
-        integer, intent(in) :: unit
-        character(len=512) :: line
-        integer :: info, ios
-        write (unit, '(a)') "# Performance"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Generated by `make bench` (`holosym bench --summarize " // dir // &
+        type(output_t), intent(inout) :: unit !! the page
+        type(text_t), allocatable :: environment(:)
+        type(holosym_status_t) :: local
+        logical :: exists
+        integer :: k
+        call unit%line("# Performance")
+        call unit%line("")
+        call unit%line("Generated by `make bench` (`holosym bench --summarize " // dir // &
             "` from the CSV files there); edits are overwritten. Every number below was " // &
             "measured in that run: holosym, RATTLE composed inside holosym and heyoka side " // &
-            "by side, against one reference."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## How it was measured"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "- `make bench`: `holosym bench --heyoka PYTHON` in the real128 " // &
+            "by side, against one reference.")
+        call unit%line("")
+        call unit%line("## How it was measured")
+        call unit%line("")
+        call unit%line("- `make bench`: `holosym bench --heyoka PYTHON` in the real128 " // &
             "build (writes the reference), the same in the real64 build against that " // &
             "reference, `holosym bench --scaling` in both builds, then plots and this page. " // &
-            "`make bench-long`: `holosym bench --long --heyoka PYTHON` (about an hour of CPU)."
-        write (unit, '(a)') "- Competitor: heyoka (the `heyoka` package on PyPI, Taylor " // &
+            "`make bench-long`: `holosym bench --long --heyoka PYTHON` (about an hour of CPU).")
+        call unit%line("- Competitor: heyoka (the `heyoka` package on PyPI, Taylor " // &
             "method with LLVM compilation), installed by `tools/bench_venv.sh` into the " // &
             "benchmark's virtual environment, run by `tools/heyoka_bench.py` on the index-1 " // &
             "form of each system (Cartesian coordinates, the multipliers from the twice " // &
             "differentiated constraint), same H, parameters and initial states; tolerance " // &
-            "swept by decades, compile time excluded and reported apart."
-        open (newunit=info, file=dir // "/environment.txt", status="old", action="read", &
-              iostat=ios)
-        if (ios == 0) then
-            do
-                read (info, '(a)', iostat=ios) line
-                if (ios /= 0) exit
-                write (unit, '(a)') "- " // trim(line)
-            end do
-            close (info)
+            "swept by decades, compile time excluded and reported apart.")
+        ! The machine and versions (tools/bench_environment.sh), when the file is there.
+        inquire (file=dir // "/environment.txt", exist=exists)
+        if (exists) then
+            call read_text_file(dir // "/environment.txt", environment, local)
+            if (.not. local%ok()) then
+                call unit%line("- (environment.txt not read: " // local%message // ")")
+            else
+                do k = 1, size(environment)
+                    call unit%line("- " // trim(environment(k)%text))
+                end do
+            end if
         end if
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## Targets at fixed T, measured"
-        write (unit, '(a)') ""
+        call unit%line("")
+        call unit%line("## Targets at fixed T, measured")
+        call unit%line("")
         call target_verdicts(rows, unit)
-        write (unit, '(a)') ""
-        write (unit, '(a)') "![work-precision](figures/work_precision.png)"
-        write (unit, '(a)') ""
+        call unit%line("")
+        call unit%line("![work-precision](figures/work_precision.png)")
+        call unit%line("")
         call write_summary(rows, steps_rows, unit, nested=.true.)
         call scaling_section(dir, unit)
-        write (unit, '(a)') ""
-        write (unit, '(a)') "![cost against K](figures/scaling.png)"
+        call unit%line("")
+        call unit%line("![cost against K](figures/scaling.png)")
         call long_section(dir, unit)
     end subroutine write_performance
 
-    !> The scaling study: every (K, path) in a child process, lines into DIR/scaling.csv.
+    !> The scaling study: every (K, path) in a child process (the same executable, run
+    !! without a shell) whose CSV line goes to a scratch file; the lines so far are
+    !! written to DIR/scaling.csv (scaling64.csv) through `output_t` after each point.
     subroutine run_scaling(options, err_unit, status)
         type(bench_options_t), intent(in) :: options
         integer, intent(in) :: err_unit
         type(holosym_status_t), intent(inout) :: status
-        character(len=:), allocatable :: executable, csv, command, part
+        character(len=:), allocatable :: executable, csv, part
+        type(text_t), allocatable :: argv(:), lines(:), point(:), fields(:)
         integer, allocatable :: links(:)
-        integer :: k, path, length, unit, ios, exit_code
-        character(len=256) :: message
+        integer :: k, path, length, exit_code
         call get_command_argument(0, length=length)
         allocate (character(len=length) :: executable)
         call get_command_argument(0, executable)
         csv = options%out_dir // "/" // trim(merge("scaling64.csv", "scaling.csv  ", &
                                                    wp_is_double))
         part = csv // ".point"
-        open (newunit=unit, file=csv, status="replace", action="write", iostat=ios, &
-              iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // csv // ": " // trim(message))
-            return
-        end if
-        write (unit, '(a)') scaling_header
-        close (unit)
+        allocate (lines(0))
+        call append_text(lines, scaling_header)
+        call write_lines(csv, lines, status)
+        if (.not. status%ok()) return
         links = scaling_links(options%quick)
         do k = 1, size(links)
             do path = 1, 2
                 if (path == 2 .and. links(k) > general_links_limit(options%quick)) cycle
-                command = "'" // executable // "' bench --scaling-point " // &
-                    int_str(links(k))
-                if (path == 2) command = command // " --general"
-                if (options%quick) command = command // " --quick"
-                call execute_command_line(command // " > '" // part // "' && cat '" // part // &
-                    "' >> '" // csv // "'", exitstat=exit_code)
+                if (allocated(argv)) deallocate (argv)
+                allocate (argv(0))
+                call append_text(argv, executable)
+                call append_text(argv, "bench")
+                call append_text(argv, "--scaling-point")
+                call append_text(argv, int_str(links(k)))
+                if (path == 2) call append_text(argv, "--general")
+                if (options%quick) call append_text(argv, "--quick")
+                call run_program(argv, part, exit_code, status)
+                if (.not. status%ok()) return
                 if (exit_code /= 0) then
-                    call fail(status, "scaling point failed: " // command)
+                    call fail(status, "scaling point failed (exit status " // &
+                        int_str(exit_code) // "): " // command_text(argv))
                     return
                 end if
+                call read_text_file(part, point, status)
+                if (.not. status%ok()) return
+                if (size(point) == 1) call split_fields(point(1)%text, fields)
+                if (size(point) /= 1) then
+                    call fail(status, part // ": expected one CSV line from " // &
+                        command_text(argv) // "; got " // int_str(size(point)))
+                    return
+                else if (size(fields) /= 9) then
+                    call fail(status, part // ": expected 9 fields from " // &
+                        command_text(argv) // "; got " // int_str(size(fields)))
+                    return
+                end if
+                call append_text(lines, point(1)%text)
+                call write_lines(csv, lines, status)
+                if (.not. status%ok()) return
                 write (err_unit, '(a)') "bench --scaling: K = " // int_str(links(k)) // &
                     merge(" general", " reduced", path == 2) // " done"
             end do
         end do
-        call execute_command_line("rm -f '" // part // "'")
+        call remove_file(part, status)
     end subroutine run_scaling
 
 end module holosym_cli_bench

@@ -6,12 +6,13 @@
 !! the commands report; only the main program turns exit codes into the process status.
 module holosym_cli_common
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+    use holosym_status, only: holosym_status_t, int_str, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+    use holosym_output, only: output_t
     implicit none
     private
 
     public :: cli_argument_t, command_arguments
-    public :: split_option, option_value, parse_integer, parse_real
+    public :: split_option, option_value, parse_integer, parse_integer_in, parse_real
     public :: fail, csv_real, csv_integer, join_lines, parsed_command_proceeds
 
     !> Exit code of a successful command.
@@ -27,6 +28,8 @@ module holosym_cli_common
     character(len=*), parameter :: csv_format = '(es44.35e4)'
     !> Longest integer literal accepted (more digits always overflow the default integer).
     integer, parameter :: max_integer_digits = 18
+    !> Outcomes of `read_decimal`.
+    integer, parameter :: number_ok = 0, number_malformed = 1, number_out_of_range = 2
 
     !> One command-line argument.
     type :: cli_argument_t
@@ -78,7 +81,8 @@ contains
     end subroutine split_option
 
     !> The value of option `name` at `args(position)`: the inline value if there is one,
-    !! else the next argument (then `position` advances past it). Fails when no value follows.
+    !! else the next argument (then `position` advances past it). Fails when no value follows
+    !! and when the value is empty (`--name=` or `--name ""`): no option has an empty value.
     subroutine option_value(args, position, name, inline, has_inline, value, status)
         type(cli_argument_t), intent(in) :: args(:) !! all arguments of the command
         integer, intent(inout) :: position     !! index of the option; of its value on return
@@ -92,7 +96,7 @@ contains
         status%message = ""
         if (has_inline) then
             value = inline
-            missing = len(value) == 0
+            missing = .false.
         else
             missing = position + 1 > size(args)
             if (.not. missing) missing = is_option_like(args(position + 1)%text)
@@ -104,6 +108,8 @@ contains
         if (missing) then
             value = ""
             call fail(status, "option " // name // " needs a value")
+        else if (len(value) == 0) then
+            call fail(status, "option " // name // " needs a value; got an empty one")
         end if
     end subroutine option_value
 
@@ -141,47 +147,110 @@ contains
         end if
     end subroutine parse_integer
 
+    !> Parse a decimal integer in lower..upper: "option NAME must be in LOWER..UPPER; got
+    !! 'TEXT'" otherwise (the text as given, never a converted value).
+    subroutine parse_integer_in(name, text, lower, upper, value, status)
+        character(len=*), intent(in) :: name  !! the option, for messages
+        character(len=*), intent(in) :: text  !! the value text
+        integer, intent(in) :: lower, upper   !! the documented range
+        integer, intent(out) :: value         !! the integer
+        type(holosym_status_t), intent(out) :: status !! failure names option and text
+        call parse_integer(name, text, value, status)
+        if (status%ok()) then
+            if (value < lower .or. value > upper) then
+                value = 0
+                call fail(status, "option " // name // " must be in " // int_str(lower) // &
+                    ".." // int_str(upper) // "; got '" // text // "'")
+            end if
+        else if (index(status%message, "out of range") > 0) then
+            call fail(status, "option " // name // " must be in " // int_str(lower) // ".." // &
+                int_str(upper) // "; got '" // text // "'")
+        end if
+    end subroutine parse_integer_in
+
     !> Parse a real: a decimal number such as `0.0625`, `1e-3`, `-2.5D0`, or a quotient of two
-    !! such numbers such as `1/8`. NaN, Inf and anything else fail with a message naming `name`.
+    !! such numbers such as `1/8`. NaN, Inf and anything else fail with a message naming `name`;
+    !! so do nonzero numbers and quotients whose magnitude is not in [1e-R, 1e+R) (R =
+    !! range(1.0_wp): 4931 in real128, 307 in real64): "out of range". No conversion ever
+    !! overflows.
     subroutine parse_real(name, text, value, status)
         character(len=*), intent(in) :: name  !! the option, for messages
         character(len=*), intent(in) :: text  !! the value text
         real(wp), intent(out) :: value        !! the number
         type(holosym_status_t), intent(out) :: status !! failure names option and text
         real(wp) :: numerator, denominator
-        integer :: slash
-        logical :: ok
+        integer :: slash, outcome, outcome2
         value = 0
         status%code = HOLOSYM_SUCCESS
         status%message = ""
         slash = index(text, "/")
         if (slash > 0) then
-            call read_decimal(text(:slash - 1), numerator, ok)
-            if (ok) call read_decimal(text(slash + 1:), denominator, ok)
-            if (ok) ok = abs(denominator) > 0
-            if (ok) value = numerator / denominator
+            call read_decimal(text(:slash - 1), numerator, outcome)
+            outcome2 = number_ok
+            if (outcome == number_ok) call read_decimal(text(slash + 1:), denominator, outcome2)
+            if (outcome == number_ok .and. outcome2 /= number_ok) outcome = outcome2
+            if (outcome == number_ok) then
+                if (denominator == 0) then
+                    call fail(status, "option " // name // ": division by zero in '" // &
+                        text // "'")
+                    return
+                end if
+                if (.not. quotient_in_range(numerator, denominator)) then
+                    outcome = number_out_of_range
+                else
+                    value = numerator / denominator
+                    if (value /= 0 .and. (abs(value) < 10.0_wp**(-range(1.0_wp)) .or. &
+                        abs(value) >= 10.0_wp**range(1.0_wp))) outcome = number_out_of_range
+                end if
+            end if
         else
-            call read_decimal(text, value, ok)
+            call read_decimal(text, value, outcome)
         end if
-        if (.not. ok) then
+        select case (outcome)
+        case (number_ok)
+        case (number_out_of_range)
+            value = 0
+            call fail(status, "option " // name // ": '" // text // "' is out of range " // &
+                "(magnitudes from 1e-" // int_str(range(1.0_wp)) // " to 1e+" // &
+                int_str(range(1.0_wp)) // ", or 0)")
+        case default
             value = 0
             call fail(status, "option " // name // " expects a number (e.g. 0.0625, 1e-3 or " &
                 // "1/16); got '" // text // "'")
-        end if
+        end select
     end subroutine parse_real
 
+    !> Whether numerator / denominator (finite, denominator nonzero) has a magnitude in
+    !! 1e-R .. 1e+R or is 0, decided on the binary exponents before dividing.
+    pure logical function quotient_in_range(numerator, denominator) result(ok)
+        real(wp), intent(in) :: numerator, denominator
+        integer :: binary
+        ok = .true.
+        if (numerator == 0) return
+        binary = exponent(numerator) - exponent(denominator)
+        ! |n / d| lies in 2**(binary - 1) .. 2**(binary + 1).
+        ok = binary + 1 <= floor(range(1.0_wp) * log(10.0) / log(2.0)) .and. &
+            binary - 1 >= -floor(range(1.0_wp) * log(10.0) / log(2.0))
+    end function quotient_in_range
+
     !> Read a decimal real after checking its syntax: [sign] digits [. digits]
-    !! [(e|E|d|D) [sign] digits], at least one mantissa digit, nothing else.
-    subroutine read_decimal(text, value, ok)
+    !! [(e|E|d|D) [sign] digits], at least one mantissa digit, nothing else; and its
+    !! magnitude (from the digits, before any conversion): 0, or within 1e-R .. 1e+R.
+    !! `outcome`: number_ok, number_malformed or number_out_of_range.
+    subroutine read_decimal(text, value, outcome)
         character(len=*), intent(in) :: text !! candidate number
         real(wp), intent(out) :: value       !! the number when ok
-        logical, intent(out) :: ok           !! whether text is a finite decimal number
-        integer :: i, mantissa_digits, exponent_digits, ios
+        integer, intent(out) :: outcome      !! what was found
+        integer :: i, mantissa_digits, exponent_digits, ios, first_digit, integer_digits
+        integer :: leading, decimal_exponent, position, exponent_start
+        logical :: negative_exponent
         value = 0
-        ok = .false.
+        outcome = number_malformed
         i = 1
         call skip_sign(text, i)
-        mantissa_digits = count_digits(text, i)
+        first_digit = i
+        integer_digits = count_digits(text, i)
+        mantissa_digits = integer_digits
         if (i <= len(text)) then
             if (text(i:i) == ".") then
                 i = i + 1
@@ -189,17 +258,59 @@ contains
             end if
         end if
         if (mantissa_digits == 0) return
+        decimal_exponent = 0
         if (i <= len(text)) then
             if (scan(text(i:i), "eEdD") == 0) return
             i = i + 1
+            negative_exponent = .false.
+            if (i <= len(text)) negative_exponent = text(i:i) == "-"
             call skip_sign(text, i)
+            exponent_start = i
             exponent_digits = count_digits(text, i)
             if (exponent_digits == 0) return
+            if (i <= len(text)) return
+            ! More than 9 significant exponent digits is beyond any range.
+            position = verify(text(exponent_start:), "0")
+            if (position /= 0) then
+                if (len(text) - (exponent_start + position - 1) + 1 > 9) then
+                    outcome = number_out_of_range
+                    return
+                end if
+                read (text(exponent_start + position - 1:), *) decimal_exponent
+            end if
+            if (negative_exponent) decimal_exponent = -decimal_exponent
         end if
         if (i <= len(text)) return
+        ! The power of ten of the first nonzero digit: digits d1 d2 ... with the point after
+        ! `integer_digits` of them.
+        leading = 0
+        position = 0
+        do i = first_digit, len(text)
+            if (scan(text(i:i), "eEdD") /= 0) exit
+            if (text(i:i) == ".") cycle
+            position = position + 1
+            if (text(i:i) /= "0") then
+                leading = position
+                exit
+            end if
+        end do
+        if (leading == 0) then
+            outcome = number_ok
+            return
+        end if
+        ! 10**E <= |x| < 10**(E + 1) with E = e + integer_digits - leading.
+        if (abs(decimal_exponent) > 2 * range(1.0_wp)) then
+            outcome = number_out_of_range
+            return
+        end if
+        decimal_exponent = decimal_exponent + integer_digits - leading
+        if (decimal_exponent < -range(1.0_wp) .or. decimal_exponent > range(1.0_wp) - 1) then
+            outcome = number_out_of_range
+            return
+        end if
         read (text, *, iostat=ios) value
-        ok = ios == 0
-        if (ok) ok = abs(value) <= huge(value)
+        if (ios /= 0) return
+        outcome = number_ok
     end subroutine read_decimal
 
     !> Advance `i` past one '+' or '-' at text(i).
@@ -263,15 +374,15 @@ contains
     end function join_lines
 
     !> After parsing a command's options: on a parse failure write the message and a hint to
-    !! `err_unit` (exit 2); with --help write the help to `out_unit` (exit 0). True when the
+    !! `err_unit` (exit 2); with --help write the help to `out` (exit 0). True when the
     !! command should go on and run.
-    logical function parsed_command_proceeds(command, status, help, help_text, out_unit, &
+    logical function parsed_command_proceeds(command, status, help, help_text, out, &
                                              err_unit, exit_code) result(proceed)
         character(len=*), intent(in) :: command   !! the command's name, for messages
         type(holosym_status_t), intent(in) :: status !! outcome of the option parser
         logical, intent(in) :: help               !! --help was given
         character(len=*), intent(in) :: help_text !! the command's help
-        integer, intent(in) :: out_unit           !! unit for the help
+        type(output_t), intent(inout) :: out      !! output for the help
         integer, intent(in) :: err_unit           !! unit for the error
         integer, intent(out) :: exit_code         !! EXIT_USAGE, EXIT_OK, or EXIT_OK to go on
         proceed = .false.
@@ -281,7 +392,7 @@ contains
             write (err_unit, '(a)') "Run 'holosym " // command // " --help' for the options."
             exit_code = EXIT_USAGE
         else if (help) then
-            write (out_unit, '(a)') help_text
+            call out%line(help_text)
         else
             proceed = .true.
         end if

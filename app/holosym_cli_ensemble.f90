@@ -18,13 +18,22 @@ module holosym_cli_ensemble
         run_ensemble, check_ensemble, perturbed_states
     use holosym_ensemble_files, only: read_ensemble_states, ensemble_csv_sink, seconds_text
     use holosym_systems, only: make_system, is_system_name, system_names, system_choices
+    use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
     use holosym_cli_common, only: parsed_command_proceeds, cli_argument_t, split_option, &
-        option_value, parse_integer, parse_real, fail, csv_real, join_lines, EXIT_OK, &
-        EXIT_FAILURE
+        option_value, parse_integer, parse_integer_in, parse_real, fail, csv_real, &
+        join_lines, EXIT_OK, EXIT_FAILURE
+    use holosym_output, only: output_t, make_directories
     implicit none
     private
 
     public :: ensemble_config_t, parse_ensemble_options, ensemble_command, ensemble_help
+
+    !> Largest --perturb (trajectories generated; each keeps its state and result).
+    integer, parameter :: max_perturb = 1000000
+    !> Largest --threads.
+    integer, parameter :: max_threads = 256
+    !> Largest --scale (a perturbation beyond it leaves no trace of the start).
+    real(wp), parameter :: max_scale = 1000
 
     !> Options of `holosym ensemble`.
     type :: ensemble_config_t
@@ -71,14 +80,15 @@ contains
             "Initial states (one of):", &
             "  --states FILE   CSV rows id,q1..qn,p1..pn[,h][,T] (optional header naming", &
             "                  these columns; '#' lines ignored); h and T per trajectory", &
-            "  --perturb K     K states around the system's initial state, ids 1..K: each", &
+            "  --perturb K     K states around the system's initial state, ids 1..K (K up", &
+            "                  to 1000000): each", &
             "                  q_i and p_i moved by S u, u uniform in [-1, 1), then projected", &
-            "  --scale S       perturbation size, >= 0                      [1e-3]", &
+            "  --scale S       perturbation size, 0 to 1000                 [1e-3]", &
             "  --seed N        generator seed                               [1]", &
             "", &
             "Options:", &
             "  --system NAME   " // "pendulum, linkage or planar               [pendulum]", &
-            "  --M, --N, --G   the scheme                                   [2, M-1, max(M,N)+1]", &
+            "  --M, --N, --G   the scheme: M 1..30, N 0..30, G N+1..64      [2, M-1, max(M,N)+1]", &
             "  --h REAL        step size of rows without their own h        [0.0625]", &
             "  --T REAL        final time of rows without their own T       [10]", &
             "  --output FILE   results CSV (required; an existing file is refused unless", &
@@ -86,12 +96,12 @@ contains
             "  --timing FILE   CPU and wall seconds per trajectory [OUTPUT without .csv,", &
             "                  + .timing.csv]", &
             "  --samples DIR   the state every K steps into DIR/<id>.csv (one per trajectory)", &
-            "  --every K       sample stride for --samples                  [1]", &
+            "  --every K       sample stride for --samples, >= 1            [1]", &
             "  --project       project off-manifold --states rows onto the manifold first", &
             "                  (without it they are an error)", &
             "  --resume        complete an interrupted run: keep the rows of OUTPUT and", &
             "                  compute only the missing ids (same options required)", &
-            "  --threads N     OpenMP threads                               [OMP_NUM_THREADS]", &
+            "  --threads N     OpenMP threads, 1..256                       [OMP_NUM_THREADS]", &
             "  --quiet         no progress lines", &
             "  -h, --help      show this help", &
             "", &
@@ -100,7 +110,8 @@ contains
             "max_constraint_residual,max_velocity_residual,newton_iterations,message", &
             "(code 0: success; else the status code, and the message says why).", &
             "Progress (done/total, rate, time left) on stderr. Exit status: 0 every row", &
-            "written (failed trajectories included), 1 bad input or I/O failure, 2 bad usage.", &
+            "written (failed trajectories included), 1 bad input or I/O failure (a full", &
+            "disk too), 2 bad usage.", &
             "", &
             "Example:", &
             "  holosym ensemble --system pendulum --perturb 100 --scale 0.01 --T 10 \", &
@@ -153,15 +164,13 @@ contains
                     if (.not. is_system_name(value)) call fail(status, "option --system: " // &
                         "unknown system '" // value // "'; choose " // system_choices)
                 case ("--M")
-                    call parse_integer(name, value, config%order_m, status)
-                    call require(config%order_m >= 1, ">= 1")
+                    call parse_integer_in(name, value, 1, max_order_m, config%order_m, status)
                 case ("--N")
-                    call parse_integer(name, value, config%order_n, status)
-                    call require(config%order_n >= 0, ">= 0")
+                    call parse_integer_in(name, value, 0, max_order_n, config%order_n, status)
                     n_given = .true.
                 case ("--G")
-                    call parse_integer(name, value, config%gauss_points, status)
-                    call require(config%gauss_points >= 1, ">= 1")
+                    call parse_integer_in(name, value, 1, max_gauss_points, &
+                                          config%gauss_points, status)
                     g_given = .true.
                 case ("--h")
                     call parse_real(name, value, config%step_size, status)
@@ -172,11 +181,11 @@ contains
                 case ("--states")
                     config%states = value
                 case ("--perturb")
-                    call parse_integer(name, value, config%perturb, status)
-                    call require(config%perturb >= 1, ">= 1")
+                    call parse_integer_in(name, value, 1, max_perturb, config%perturb, status)
                 case ("--scale")
                     call parse_real(name, value, config%scale, status)
-                    call require(config%scale >= 0, ">= 0")
+                    call require(config%scale >= 0 .and. config%scale <= max_scale, &
+                        "in [0, 1000]")
                 case ("--seed")
                     call parse_integer(name, value, config%seed, status)
                 case ("--output")
@@ -187,12 +196,10 @@ contains
                 case ("--samples")
                     config%samples = value
                 case ("--every")
-                    call parse_integer(name, value, config%every, status)
-                    call require(config%every >= 1, ">= 1")
+                    call parse_integer_in(name, value, 1, huge(1), config%every, status)
                     every_given = .true.
                 case ("--threads")
-                    call parse_integer(name, value, config%threads, status)
-                    call require(config%threads >= 1, ">= 1")
+                    call parse_integer_in(name, value, 1, max_threads, config%threads, status)
                 end select
                 if (.not. status%ok()) return
             case default
@@ -203,7 +210,20 @@ contains
         end do
         if (.not. n_given) config%order_n = config%order_m - 1
         if (.not. g_given) config%gauss_points = max(config%order_m, config%order_n) + 1
-        if (len(config%states) > 0 .eqv. config%perturb > 0) then
+        if (config%gauss_points < config%order_n + 1) then
+            ! Singular for every system: say so here, naming the defaults taken.
+            if (n_given) then
+                call fail(status, "options --G and --N: G = " // int_str(config%gauss_points) &
+                    // " must be at least N + 1 = " // int_str(config%order_n + 1))
+            else
+                call fail(status, "option --G: G = " // int_str(config%gauss_points) // &
+                    " must be at least N + 1 = " // int_str(config%order_n + 1) // &
+                    " (N is M - 1 when --N is not given)")
+            end if
+        else if (.not. steps_fit(config%final_time, config%step_size)) then
+            call fail(status, "options --T and --h: T/h must give 1 to " // &
+                int_str(huge(1)) // " steps (or T = 0)")
+        else if (len(config%states) > 0 .eqv. config%perturb > 0) then
             call fail(status, "give exactly one of --states FILE and --perturb K")
         else if (len(config%output) == 0) then
             call fail(status, "option --output FILE is required")
@@ -220,6 +240,18 @@ contains
                 " must be " // bound // "; got '" // value // "'")
         end subroutine require
     end subroutine parse_ensemble_options
+
+    !> Whether T/h (T >= 0, h > 0, both finite) rounds to 1 .. huge(1) steps, or T = 0;
+    !! decided on the exponents before dividing, so nothing overflows.
+    pure logical function steps_fit(span, h) result(fits)
+        real(wp), intent(in) :: span, h
+        real(wp) :: ratio
+        fits = span == 0
+        if (fits .or. .not. span > 0) return
+        if (exponent(span) - exponent(h) > bit_size(1)) return
+        ratio = span / h
+        fits = ratio < real(huge(1), wp) .and. nint(ratio) >= 1
+    end function steps_fit
 
     !> The default timing log of a results file: "out.csv" gives "out.timing.csv".
     pure function timing_name(output) result(name)
@@ -262,9 +294,9 @@ contains
 
     !> `holosym ensemble ARGS`: parse, build the states, run, report. `farm` (default: the
     !! OpenMP threads of --threads) computes the trajectories.
-    subroutine ensemble_command(args, out_unit, err_unit, exit_code, farm)
+    subroutine ensemble_command(args, out, err_unit, exit_code, farm)
         type(cli_argument_t), intent(in) :: args(:) !! arguments after "ensemble"
-        integer, intent(in) :: out_unit   !! unit for the help
+        type(output_t), intent(inout) :: out !! the help
         integer, intent(in) :: err_unit   !! unit for progress and errors
         integer, intent(out) :: exit_code !! process exit code
         class(task_farm), intent(inout), optional :: farm !! who computes (MPI: every rank)
@@ -274,7 +306,7 @@ contains
 
         call parse_ensemble_options(args, config, status)
         if (.not. parsed_command_proceeds("ensemble", status, config%help, ensemble_help(), &
-                                          out_unit, err_unit, exit_code)) return
+                                          out, err_unit, exit_code)) return
         threads%threads = config%threads
         if (present(farm)) then
             call run_ensemble_command(config, farm, err_unit, exit_code)
@@ -321,8 +353,8 @@ contains
         settings%every = config%every
         settings%project = config%project .or. config%perturb > 0
         if (status%ok()) call check_ensemble(sys, states, settings, status)
-        if (status%ok() .and. len(config%samples) > 0) call make_directory(config%samples, &
-                                                                          status)
+        if (status%ok() .and. len(config%samples) > 0) call make_directories(config%samples, &
+                                                                            status)
         sink%label = "holosym ensemble: "
         sink%samples_dir = config%samples
         if (.not. config%quiet) sink%progress_unit = err_unit
@@ -384,17 +416,6 @@ contains
         !$ if (threads == 0) count = omp_get_max_threads()
         text = int_str(count) // " thread" // trim(merge("s", " ", count > 1))
     end function workers_text
-
-    !> Create a directory (and its parents) unless it exists.
-    subroutine make_directory(path, status)
-        character(len=*), intent(in) :: path
-        type(holosym_status_t), intent(inout) :: status
-        integer :: exit_status, command_status
-        call execute_command_line("mkdir -p '" // path // "'", wait=.true., &
-            exitstat=exit_status, cmdstat=command_status)
-        if (command_status /= 0 .or. exit_status /= 0) call fail(status, &
-            "cannot create the samples directory '" // path // "'")
-    end subroutine make_directory
 
 end module holosym_cli_ensemble
 

@@ -10,8 +10,9 @@ module holosym_cli_extremes
         high_order_row_t, run_high_order_study, large_step_cell_t, run_large_step_study, &
         stiff_cell_t, run_stiff_study, near_singular_cell_t, run_near_singular_study, &
         max_study_order, error_floor, paper_step
+    use holosym_output, only: output_t
     use holosym_cli_common, only: parsed_command_proceeds, &
-        cli_argument_t, split_option, option_value, parse_integer, &
+        cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         fail, join_lines, EXIT_OK, EXIT_FAILURE
     implicit none
     private
@@ -61,8 +62,9 @@ contains
             "Options:", &
             "  --part LIST      comma-separated parts: long, tiny, high, large, stiff,", &
             "                   near-singular, or all (default all)", &
-            "  --steps N        steps of the long run, N >= 1 (default 1000000;", &
-            "                   --quick 20000)", &
+            "  --steps N        steps of the long run, 1..2147483647 (default 1000000;", &
+            "                   --quick 20000), and the most steps of any run of every", &
+            "                   part (the round-off growth runs need N >= 2)", &
             "  --max-order M    largest M of the high-order part, 1..15 (default 15;", &
             "                   --quick 6)", &
             "  --quick          the shortened sizes also run by the test suite", &
@@ -101,15 +103,10 @@ contains
                 case ("--part")
                     call parse_parts(value, options%parts, status)
                 case ("--steps")
-                    call parse_integer(name, value, steps, status)
-                    if (status%ok() .and. steps < 1) call fail(status, &
-                        "option --steps must be >= 1; got '" // value // "'")
+                    call parse_integer_in(name, value, 1, huge(1), steps, status)
                     steps_given = .true.
                 case ("--max-order")
-                    call parse_integer(name, value, max_order, status)
-                    if (status%ok() .and. (max_order < 1 .or. max_order > max_study_order)) &
-                        call fail(status, "option --max-order must be in 1.." // &
-                        int_str(max_study_order) // "; got '" // value // "'")
+                    call parse_integer_in(name, value, 1, max_study_order, max_order, status)
                     order_given = .true.
                 end select
                 if (.not. status%ok()) return
@@ -121,8 +118,15 @@ contains
         end do
         options%settings = extremes_settings(options%quick)
         if (steps_given) then
-            options%settings%long_steps = steps
-            options%settings%long_window = min(options%settings%long_window, steps)
+            ! --steps bounds every run of every part.
+            associate (set => options%settings)
+                set%max_steps = steps
+                set%long_steps = steps
+                set%long_window = min(set%long_window, steps)
+                set%growth_steps = min(set%growth_steps, steps)
+                set%tiny_step_count = min(set%tiny_step_count, steps)
+                set%near_steps = min(set%near_steps, steps)
+            end associate
         end if
         if (order_given) options%settings%high_max_order = max_order
     end subroutine parse_extremes_options
@@ -165,9 +169,9 @@ contains
 
     !> `holosym extremes [options]`: parse, run the selected parts, write Markdown.
     !! Exit 0 success, 1 a study could not run, 2 usage error.
-    subroutine extremes_command(args, out_unit, err_unit, exit_code)
+    subroutine extremes_command(args, out, err_unit, exit_code)
         type(cli_argument_t), intent(in) :: args(:) !! the command's arguments
-        integer, intent(in) :: out_unit   !! Markdown report
+        type(output_t), intent(inout) :: out !! Markdown report
         integer, intent(in) :: err_unit   !! progress and errors
         integer, intent(out) :: exit_code !! process exit code
         type(extremes_options_t) :: options
@@ -175,27 +179,27 @@ contains
 
         call parse_extremes_options(args, options, status)
         if (.not. parsed_command_proceeds("extremes", status, options%help, extremes_help(), &
-                                          out_unit, err_unit, exit_code)) return
+                                          out, err_unit, exit_code)) return
         if (options%quick) then
-            write (out_unit, '(a)') "# holosym extremes (quick)"
+            call out%line("# holosym extremes (quick)")
         else
-            write (out_unit, '(a)') "# holosym extremes"
+            call out%line("# holosym extremes")
         end if
-        write (out_unit, '(a)') ""
-        write (out_unit, '(a)') "real128: epsilon = " // short_real(epsilon(1.0_wp)) // &
-            "; errors at or below " // short_real(error_floor) // " count as round-off."
+        call out%line("")
+        call out%line("real128: epsilon = " // short_real(epsilon(1.0_wp)) // &
+            "; errors at or below " // short_real(error_floor) // " count as round-off.")
         if (options%parts(part_long) .and. status%ok()) &
-            call report_long(options%settings, out_unit, err_unit, status)
+            call report_long(options%settings, out, err_unit, status)
         if (options%parts(part_tiny) .and. status%ok()) &
-            call report_tiny(options%settings, out_unit, err_unit, status)
+            call report_tiny(options%settings, out, err_unit, status)
         if (options%parts(part_high) .and. status%ok()) &
-            call report_high(options%settings, out_unit, err_unit, status)
+            call report_high(options%settings, out, err_unit, status)
         if (options%parts(part_large) .and. status%ok()) &
-            call report_large(options%settings, out_unit, err_unit, status)
+            call report_large(options%settings, out, err_unit, status)
         if (options%parts(part_stiff) .and. status%ok()) &
-            call report_stiff(options%settings, out_unit, err_unit, status)
+            call report_stiff(options%settings, out, err_unit, status)
         if (options%parts(part_near) .and. status%ok()) &
-            call report_near(options%settings, out_unit, status)
+            call report_near(options%settings, out, status)
         if (.not. status%ok()) then
             write (err_unit, '(a)') "holosym extremes: " // status%message
             exit_code = EXIT_FAILURE
@@ -249,13 +253,13 @@ contains
         real(wp), intent(in) :: h
         character(len=:), allocatable :: text
         real(wp) :: inverse
+        ! nint only where it fits the default integer.
         inverse = 1 / h
-        if (h >= 1 .and. h == nint(h)) then
-            text = int_str(nint(h))
-        else if (inverse == nint(inverse) .and. inverse <= huge(1) / 2) then
-            text = "1/" // int_str(nint(inverse))
-        else
-            text = short_real(h)
+        text = short_real(h)
+        if (h >= 1 .and. h <= huge(1) / 2) then
+            if (h == nint(h)) text = int_str(nint(h))
+        else if (h < 1 .and. inverse <= huge(1) / 2) then
+            if (inverse == nint(inverse)) text = "1/" // int_str(nint(inverse))
         end if
     end function step_text
 
@@ -273,9 +277,10 @@ contains
     ! ------------------------------------------------------------------ 1. long
 
     !> Part 1: the long run and the round-off growth ensemble.
-    subroutine report_long(settings, unit, err_unit, status)
+    subroutine report_long(settings, out, err_unit, status)
         type(extremes_settings_t), intent(in) :: settings
-        integer, intent(in) :: unit, err_unit
+        type(output_t), intent(inout) :: out
+        integer, intent(in) :: err_unit
         type(holosym_status_t), intent(out) :: status
         type(long_run_result_t) :: long
         type(growth_result_t) :: growth
@@ -284,77 +289,85 @@ contains
 
         call run_long_study(settings%long_steps, settings%long_window, long, status, err_unit)
         if (.not. status%ok()) return
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## 1. Long run: spherical pendulum, (M, N, G) = (2, 1, 3), h = 1/8"
-        write (unit, '(a)') ""
-        write (unit, '(a)') int_str(long%steps_done) // " of " // int_str(long%steps) // &
+        call out%line("")
+        call out%line("## 1. Long run: spherical pendulum, (M, N, G) = (2, 1, 3), h = 1/8")
+        call out%line("")
+        call out%line(int_str(long%steps_done) // " of " // int_str(long%steps) // &
             " steps (t = " // short_real(long%steps_done * paper_step) // "), status " // &
             code_text(long%code) // ", " // fixed2(long%iterations) // &
-            " Newton iterations per step, " // fixed2(long%seconds) // " s."
-        if (long%code /= HOLOSYM_SUCCESS) write (unit, '(a)') "Message: " // long%message
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| quantity | value |"
-        write (unit, '(a)') "|---|---|"
-        write (unit, '(a)') "| max relative energy error, first " // int_str(long%window) // &
-            " steps | " // short_real(long%energy_window) // " |"
-        write (unit, '(a)') "| max relative energy error, all " // int_str(long%steps_done) // &
-            " steps | " // short_real(long%energy_total) // " |"
-        if (long%energy_window > 0) write (unit, '(a)') "| ratio all / first (drift factor) | " &
-            // fixed2(long%energy_total / long%energy_window) // " |"
-        write (unit, '(a)') "| max abs(phi) at the displacement nodes | " // &
-            short_real(long%constraint_max) // " |"
-        write (unit, '(a)') "| max abs(Phi H_p) at the step ends | " // &
-            short_real(long%velocity_max) // " |"
-        write (unit, '(a)') "| growth exponent of the RMS L_z error (blocks below) | " // &
-            fixed2(long%lz_exponent) // " |"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| steps | max relative energy error | RMS of L_z - L_z(0) |"
-        write (unit, '(a)') "|---|---|---|"
+            " Newton iterations per step, " // fixed2(long%seconds) // " s.")
+        if (long%code /= HOLOSYM_SUCCESS) call out%line("Message: " // long%message)
+        call out%line("")
+        call out%line("| quantity | value |")
+        call out%line("|---|---|")
+        call out%line("| max relative energy error, first " // int_str(long%window) // &
+            " steps | " // short_real(long%energy_window) // " |")
+        call out%line("| max relative energy error, all " // int_str(long%steps_done) // &
+            " steps | " // short_real(long%energy_total) // " |")
+        if (long%energy_window > 0) call out%line("| ratio all / first (drift factor) | " &
+            // fixed2(long%energy_total / long%energy_window) // " |")
+        call out%line("| max abs(phi) at the displacement nodes | " // &
+            short_real(long%constraint_max) // " |")
+        call out%line("| max abs(Phi H_p) at the step ends | " // &
+            short_real(long%velocity_max) // " |")
+        call out%line("| growth exponent of the RMS L_z error (blocks below) | " // &
+            fixed2(long%lz_exponent) // " |")
+        call out%line("")
+        call out%line("| steps | max relative energy error | RMS of L_z - L_z(0) |")
+        call out%line("|---|---|---|")
         first = 1
         do k = 1, size(long%block_end)
-            write (unit, '(a)') "| " // int_str(first) // "-" // int_str(long%block_end(k)) // &
+            call out%line("| " // int_str(first) // "-" // int_str(long%block_end(k)) // &
                 " | " // short_real(long%block_energy(k)) // " | " // &
-                short_real(long%block_lz(k)) // " |"
+                short_real(long%block_lz(k)) // " |")
             first = long%block_end(k) + 1
         end do
 
+        if (settings%growth_steps < 2) then
+            ! Bounded by --steps below the two steps a growth fit needs.
+            call out%line("")
+            call out%line("Round-off growth: not run (--steps " // &
+                int_str(settings%growth_steps) // " < 2).")
+            return
+        end if
         call run_growth_study(settings%growth_steps, settings%growth_realizations, growth, &
                               status, err_unit)
         if (.not. status%ok()) return
-        write (unit, '(a)') ""
-        write (unit, '(a)') "### Round-off growth: L_z with compensated and naive summation"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "L_z = x p_y - y p_x is conserved exactly by the scheme, so its " // &
+        call out%line("")
+        call out%line("### Round-off growth: L_z with compensated and naive summation")
+        call out%line("")
+        call out%line("L_z = x p_y - y p_x is conserved exactly by the scheme, so its " // &
             "change is round-off alone, at h = 1/8 as at any h. RMS over " // &
             int_str(growth%realizations) // " copies of the start state rotated about z and " &
             // "over the steps of each block; " // int_str(growth%steps) // " steps, " // &
-            fixed2(growth%seconds) // " s, status " // code_text(growth%code) // "."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| steps | RMS, compensated (integrate) | RMS, naive (step loop) " &
-            // "| compensated / (eps sqrt(k)) | naive / (eps sqrt(k)) |"
-        write (unit, '(a)') "|---|---|---|---|---|"
+            fixed2(growth%seconds) // " s, status " // code_text(growth%code) // ".")
+        call out%line("")
+        call out%line("| steps | RMS, compensated (integrate) | RMS, naive (step loop) " &
+            // "| compensated / (eps sqrt(k)) | naive / (eps sqrt(k)) |")
+        call out%line("|---|---|---|---|---|")
         first = 1
         do k = 1, size(growth%block_end)
             centre = (real(first, wp) + growth%block_end(k)) / 2
-            write (unit, '(a)') "| " // int_str(first) // "-" // int_str(growth%block_end(k)) &
+            call out%line("| " // int_str(first) // "-" // int_str(growth%block_end(k)) &
                 // " | " // short_real(growth%rms_compensated(k)) // " | " // &
                 short_real(growth%rms_naive(k)) // " | " // &
                 fixed2(growth%rms_compensated(k) / (epsilon(1.0_wp) * sqrt(centre))) // &
-                " | " // fixed2(growth%rms_naive(k) / (epsilon(1.0_wp) * sqrt(centre))) // " |"
+                " | " // fixed2(growth%rms_naive(k) / (epsilon(1.0_wp) * sqrt(centre))) // " |")
             first = growth%block_end(k) + 1
         end do
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Fitted growth exponent (blocks from step 16 on; 1/2 = random " // &
+        call out%line("")
+        call out%line("Fitted growth exponent (blocks from step 16 on; 1/2 = random " // &
             "walk, 1 = drift): compensated " // fixed2(growth%exponent_compensated) // &
-            ", naive " // fixed2(growth%exponent_naive) // "."
+            ", naive " // fixed2(growth%exponent_naive) // ".")
     end subroutine report_long
 
     ! ------------------------------------------------------------------ 2. tiny
 
     !> Part 2: tiny steps.
-    subroutine report_tiny(settings, unit, err_unit, status)
+    subroutine report_tiny(settings, out, err_unit, status)
         type(extremes_settings_t), intent(in) :: settings
-        integer, intent(in) :: unit, err_unit
+        type(output_t), intent(inout) :: out
+        integer, intent(in) :: err_unit
         type(holosym_status_t), intent(out) :: status
         type(tiny_cell_t), allocatable :: cells(:, :)
         character(len=:), allocatable :: line
@@ -365,30 +378,30 @@ contains
                             settings%tiny_step_count, cells, status, err_unit)
         if (.not. status%ok()) return
         band = round_off_band * epsilon(1.0_wp) * sqrt(real(settings%tiny_step_count, wp))
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## 2. Tiny steps: spherical pendulum, " // &
-            int_str(settings%tiny_step_count) // " steps per run, N = M - 1, G = M + 1"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Global error: max abs(q(K h) - q_ref) against M = 8 with steps " &
+        call out%line("")
+        call out%line("## 2. Tiny steps: spherical pendulum, " // &
+            int_str(settings%tiny_step_count) // " steps per run, N = M - 1, G = M + 1")
+        call out%line("")
+        call out%line("Global error: max abs(q(K h) - q_ref) against M = 8 with steps " &
             // "<= 1/16 (the reference changes by at most " // &
             short_real(maxval(cells%reference_change)) // " between steps <= 1/8 and <= 1/16)." &
             // " Round-off alone gives about eps sqrt(K) = " // &
-            short_real(epsilon(1.0_wp) * sqrt(real(settings%tiny_step_count, wp))) // "."
+            short_real(epsilon(1.0_wp) * sqrt(real(settings%tiny_step_count, wp))) // ".")
         do which = 1, 2
-            write (unit, '(a)') ""
+            call out%line("")
             if (which == 1) then
-                write (unit, '(a)') "Global error of q:"
+                call out%line("Global error of q:")
             else
-                write (unit, '(a)') "Max relative energy error:"
+                call out%line("Max relative energy error:")
             end if
-            write (unit, '(a)') ""
+            call out%line("")
             line = "| h |"
             do j = 1, size(cells, 2)
                 line = line // " M = " // int_str(cells(1, j)%order_m) // " (order " // &
                     int_str(2 * cells(1, j)%order_m) // ") |"
             end do
-            write (unit, '(a)') line
-            write (unit, '(a)') "|---|" // repeat("---|", size(cells, 2))
+            call out%line(line)
+            call out%line("|---|" // repeat("---|", size(cells, 2)))
             do i = 1, size(cells, 1)
                 line = "| " // short_real(cells(i, 1)%h) // " |"
                 do j = 1, size(cells, 2)
@@ -400,21 +413,21 @@ contains
                         line = line // " " // short_real(cells(i, j)%energy_error) // " |"
                     end if
                 end do
-                write (unit, '(a)') line
+                call out%line(line)
             end do
         end do
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Where the error turns from truncation to round-off: the smallest " &
+        call out%line("")
+        call out%line("Where the error turns from truncation to round-off: the smallest " &
             // "h whose error is still above the round-off band (" // &
             int_str(round_off_band) // " eps sqrt(K) = " // short_real(band) // &
             ", the ulp of the state and of H over a random walk of K steps), and the " // &
-            "largest h inside it:"
-        write (unit, '(a)') ""
+            "largest h inside it:")
+        call out%line("")
         do which = 1, 2
             do j = 1, size(cells, 2)
                 call turn_text(cells(:, j), which == 1, band, line)
-                write (unit, '(a)') "- " // merge("global error", "energy error", which == 1) &
-                    // ", M = " // int_str(cells(1, j)%order_m) // ": " // line
+                call out%line("- " // merge("global error", "energy error", which == 1) &
+                    // ", M = " // int_str(cells(1, j)%order_m) // ": " // line)
             end do
         end do
     end subroutine report_tiny
@@ -460,46 +473,47 @@ contains
     ! ------------------------------------------------------------------ 3. high
 
     !> Part 3: high orders.
-    subroutine report_high(settings, unit, err_unit, status)
+    subroutine report_high(settings, out, err_unit, status)
         type(extremes_settings_t), intent(in) :: settings
-        integer, intent(in) :: unit, err_unit
+        type(output_t), intent(inout) :: out
+        integer, intent(in) :: err_unit
         type(holosym_status_t), intent(out) :: status
         type(high_order_row_t), allocatable :: rows(:)
         character(len=:), allocatable :: line
         integer :: i, k
 
         call run_high_order_study(settings%high_max_order, settings%high_steps, &
-                                  settings%high_span, rows, status, err_unit)
+                                  settings%high_span, rows, status, err_unit, settings%max_steps)
         if (.not. status%ok()) return
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## 3. High orders: N = M - 1, G = M + 1, spherical pendulum"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Quadrature: max error on monomials of the exact degrees (Gauss " // &
+        call out%line("")
+        call out%line("## 3. High orders: N = M - 1, G = M + 1, spherical pendulum")
+        call out%line("")
+        call out%line("Quadrature: max error on monomials of the exact degrees (Gauss " // &
             "G points: 2G-1; Lobatto M+1 points: 2M-1). Basis: interpolated tau^k and " // &
             "k tau^(k-1), k <= M, at the Gauss points. Conditioning: first step, h = 1/8, " // &
-            "row-equilibrated Newton Jacobian at the solution."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| M | G | Gauss error | Lobatto error | basis error | " // &
-            "smallest pivot ratio | 1-norm condition | Newton iterations |"
-        write (unit, '(a)') "|---|---|---|---|---|---|---|---|"
+            "row-equilibrated Newton Jacobian at the solution.")
+        call out%line("")
+        call out%line("| M | G | Gauss error | Lobatto error | basis error | " // &
+            "smallest pivot ratio | 1-norm condition | Newton iterations |")
+        call out%line("|---|---|---|---|---|---|---|---|")
         do i = 1, size(rows)
-            write (unit, '(a)') "| " // int_str(rows(i)%order_m) // " | " // &
+            call out%line("| " // int_str(rows(i)%order_m) // " | " // &
                 int_str(rows(i)%gauss_points) // " | " // short_real(rows(i)%gauss_error) // &
                 " | " // short_real(rows(i)%lobatto_error) // " | " // &
                 short_real(rows(i)%basis_error) // " | " // short_real(rows(i)%pivot_ratio) // &
                 " | " // short_real(rows(i)%condition) // " | " // &
-                int_str(rows(i)%newton_iterations) // " |"
+                int_str(rows(i)%newton_iterations) // " |")
         end do
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Max relative energy error over T = " // fixed2(settings%high_span) &
-            // "; refinement stops at the floor " // short_real(error_floor) // ":"
-        write (unit, '(a)') ""
+        call out%line("")
+        call out%line("Max relative energy error over T = " // fixed2(settings%high_span) &
+            // "; refinement stops at the floor " // short_real(error_floor) // ":")
+        call out%line("")
         line = "| M | law 2M |"
         do k = 1, size(settings%high_steps)
             line = line // " h = " // step_text(settings%high_steps(k)) // " |"
         end do
-        write (unit, '(a)') line // " observed order |"
-        write (unit, '(a)') "|---|---|" // repeat("---|", size(settings%high_steps) + 1)
+        call out%line(line // " observed order |")
+        call out%line("|---|---|" // repeat("---|", size(settings%high_steps) + 1))
         do i = 1, size(rows)
             line = "| " // int_str(rows(i)%order_m) // " | " // int_str(2 * rows(i)%order_m) &
                 // " |"
@@ -518,36 +532,38 @@ contains
             else
                 line = line // " at floor |"
             end if
-            write (unit, '(a)') line
+            call out%line(line)
         end do
     end subroutine report_high
 
     ! ------------------------------------------------------------------ 4. large
 
     !> Part 4: large steps.
-    subroutine report_large(settings, unit, err_unit, status)
+    subroutine report_large(settings, out, err_unit, status)
         type(extremes_settings_t), intent(in) :: settings
-        integer, intent(in) :: unit, err_unit
+        type(output_t), intent(inout) :: out
+        integer, intent(in) :: err_unit
         type(holosym_status_t), intent(out) :: status
         type(large_step_cell_t), allocatable :: cells(:)
         integer :: i
 
-        call run_large_step_study(settings%large_max_order, cells, status, err_unit)
+        call run_large_step_study(settings%large_max_order, cells, status, err_unit, &
+                                  settings%max_steps)
         if (.not. status%ok()) return
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## 4. Large steps: N = M - 1, G = M + 1, from the paper's states"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Largest h found (doubling from 1/8, then 12 bisections) for " // &
+        call out%line("")
+        call out%line("## 4. Large steps: N = M - 1, G = M + 1, from the paper's states")
+        call out%line("")
+        call out%line("Largest h found (doubling from 1/8, then 12 bisections) for " // &
             "which the first step converges, and for which a run over T = 10 completes; " // &
             "the status just above it, and whether that failure is clean (positive code; " // &
             "state unchanged after a failed first step, finite and on the manifold after a " // &
-            "failed run)."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| system | M | h, first step | failure above | clean | " // &
-            "h, run T = 10 | failure above | clean | energy error at h |"
-        write (unit, '(a)') "|---|---|---|---|---|---|---|---|---|"
+            "failed run).")
+        call out%line("")
+        call out%line("| system | M | h, first step | failure above | clean | " // &
+            "h, run T = 10 | failure above | clean | energy error at h |")
+        call out%line("|---|---|---|---|---|---|---|---|---|")
         do i = 1, size(cells)
-            write (unit, '(a)') "| " // cells(i)%system // " | " // int_str(cells(i)%order_m) &
+            call out%line("| " // cells(i)%system // " | " // int_str(cells(i)%order_m) &
                 // " | " // short_real(cells(i)%h_step) // " | " // &
                 failure_text(cells(i)%step_fail_code, cells(i)%h_step_fail) // " | " // &
                 trim(merge("yes", "no ", cells(i)%step_fail_clean)) // " | " // &
@@ -555,7 +571,7 @@ contains
                 failure_text(cells(i)%run_fail_code, cells(i)%h_run_fail) // &
                 steps_text(cells(i)%run_fail_code, cells(i)%run_fail_steps) // " | " // &
                 trim(merge("yes", "no ", cells(i)%run_fail_clean)) // " | " // &
-                short_real(cells(i)%run_energy_error) // " |"
+                short_real(cells(i)%run_energy_error) // " |")
         end do
     end subroutine report_large
 
@@ -582,42 +598,43 @@ contains
     ! ------------------------------------------------------------------ 5. stiff
 
     !> Part 5: stiff springs.
-    subroutine report_stiff(settings, unit, err_unit, status)
+    subroutine report_stiff(settings, out, err_unit, status)
         type(extremes_settings_t), intent(in) :: settings
-        integer, intent(in) :: unit, err_unit
+        type(output_t), intent(inout) :: out
+        integer, intent(in) :: err_unit
         type(holosym_status_t), intent(out) :: status
         type(stiff_cell_t), allocatable :: cells(:)
         integer :: i
 
         call run_stiff_study(settings%stiffnesses, settings%stiff_orders, &
                              settings%stiff_omega_h, settings%stiff_periods, cells, status, &
-                             err_unit)
+                             err_unit, settings%max_steps)
         if (.not. status%ok()) return
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## 5. Stiff springs: spring-linkage from the paper's state, " // &
-            fixed2(settings%stiff_periods) // " spring periods 2 pi / omega, omega = sqrt(k/m_r)"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| k | (M, N, G) | omega h | h | steps done | status | " // &
-            "max relative energy error | max abs(phi) | Newton iterations per step |"
-        write (unit, '(a)') "|---|---|---|---|---|---|---|---|---|"
+        call out%line("")
+        call out%line("## 5. Stiff springs: spring-linkage from the paper's state, " // &
+            fixed2(settings%stiff_periods) // " spring periods 2 pi / omega, omega = sqrt(k/m_r)")
+        call out%line("")
+        call out%line("| k | (M, N, G) | omega h | h | steps done | status | " // &
+            "max relative energy error | max abs(phi) | Newton iterations per step |")
+        call out%line("|---|---|---|---|---|---|---|---|---|")
         do i = 1, size(cells)
-            write (unit, '(a)') "| " // short_real(cells(i)%stiffness) // " | (" // &
+            call out%line("| " // short_real(cells(i)%stiffness) // " | (" // &
                 int_str(cells(i)%order_m) // ", " // int_str(cells(i)%order_n) // ", " // &
                 int_str(cells(i)%gauss_points) // ") | " // step_text(cells(i)%omega_h) // &
                 " | " // short_real(cells(i)%h) // " | " // int_str(cells(i)%steps_done) // &
                 "/" // int_str(cells(i)%steps) // " | " // code_text(cells(i)%code) // " | " &
                 // short_real(cells(i)%energy_error) // " | " // &
                 short_real(cells(i)%constraint_max) // " | " // fixed2(cells(i)%iterations) // &
-                " |"
+                " |")
         end do
     end subroutine report_stiff
 
     ! ------------------------------------------------------------------ 6. near-singular
 
     !> Part 6: near-singular constraints.
-    subroutine report_near(settings, unit, status)
+    subroutine report_near(settings, out, status)
         type(extremes_settings_t), intent(in) :: settings
-        integer, intent(in) :: unit
+        type(output_t), intent(inout) :: out
         type(holosym_status_t), intent(out) :: status
         type(near_singular_cell_t), allocatable :: cells(:)
         integer :: i
@@ -625,33 +642,33 @@ contains
         call run_near_singular_study(settings%deltas, settings%near_steps, &
                                      settings%near_step, cells, status)
         if (.not. status%ok()) return
-        write (unit, '(a)') ""
-        write (unit, '(a)') "## 6. Near-singular constraints: linkage with rod L = 2R(1 + delta)"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Start at rest, ball 1 at the bottom of track 1, ball 2 at the " // &
+        call out%line("")
+        call out%line("## 6. Near-singular constraints: linkage with rod L = 2R(1 + delta)")
+        call out%line("")
+        call out%line("Start at rest, ball 1 at the bottom of track 1, ball 2 at the " // &
             "top of track 2, rod almost perpendicular to the springs; at delta = 0 the three " &
             // "constraint gradients are dependent. Projected onto the manifold, then " // &
             int_str(settings%near_steps) // " steps of h = " // step_text(settings%near_step) &
-            // " with (2, 1, 3)."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "| delta | smallest pivot ratio of Phi Phi^T | status | steps " // &
+            // " with (2, 1, 3).")
+        call out%line("")
+        call out%line("| delta | smallest pivot ratio of Phi Phi^T | status | steps " // &
             "done | max abs(lambda) | smallest Newton pivot ratio | max abs(phi) | " // &
-            "max relative energy error |"
-        write (unit, '(a)') "|---|---|---|---|---|---|---|---|"
+            "max relative energy error |")
+        call out%line("|---|---|---|---|---|---|---|---|")
         do i = 1, size(cells)
-            write (unit, '(a)') "| " // short_real(cells(i)%delta) // " | " // &
+            call out%line("| " // short_real(cells(i)%delta) // " | " // &
                 short_real(cells(i)%gram_pivot) // " | " // code_text(cells(i)%code) // " | " &
                 // int_str(cells(i)%steps_done) // " | " // short_real(cells(i)%lambda_max) // &
                 " | " // short_real(cells(i)%newton_pivot) // " | " // &
                 short_real(cells(i)%constraint_max) // " | " // &
-                short_real(cells(i)%energy_error) // " |"
+                short_real(cells(i)%energy_error) // " |")
         end do
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Messages of the failed runs:"
-        write (unit, '(a)') ""
+        call out%line("")
+        call out%line("Messages of the failed runs:")
+        call out%line("")
         do i = 1, size(cells)
-            if (cells(i)%code /= HOLOSYM_SUCCESS) write (unit, '(a)') "- delta = " // &
-                short_real(cells(i)%delta) // ": " // cells(i)%message
+            if (cells(i)%code /= HOLOSYM_SUCCESS) call out%line("- delta = " // &
+                short_real(cells(i)%delta) // ": " // cells(i)%message)
         end do
     end subroutine report_near
 

@@ -20,6 +20,10 @@
 !!   M = 1..8 (N = M - 1, G = M + 1), with a reference of M = 8 at a smaller step.
 !! The files of the paper's figures have the columns of `holosym simulate`
 !! (`trajectory_writer`). --quick shortens every run (the test suite's variant).
+!!
+!! The directory is made with mkdir(2), never through a shell; the trajectory files are
+!! checked by the library's writer when closed, the others are written through `output_t`:
+!! a full disk or device fails the command (exit 1) instead of leaving short files.
 module holosym_cli_figures
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
@@ -34,8 +38,9 @@ module holosym_cli_figures
     use holosym_models, only: spherical_pendulum, spring_linkage
     use holosym_index1, only: rk4_step
     use holosym_cli_common, only: parsed_command_proceeds, cli_argument_t, split_option, &
-        option_value, parse_integer, fail, csv_real, csv_integer, join_lines, EXIT_OK, &
+        option_value, parse_integer_in, fail, csv_real, csv_integer, join_lines, EXIT_OK, &
         EXIT_FAILURE
+    use holosym_output, only: output_t, open_output, make_directories
     implicit none
     private
 
@@ -45,8 +50,9 @@ module holosym_cli_figures
     !> The figures, in the order of docs/figures.md.
     character(len=*), parameter :: figure_names(*) = [character(len=11) :: "fig1", "fig2", &
         "fig4", "fig5", "long", "convergence"]
-    !> Steps of the long run (10^5 steps of h = 1/8: t = 12500).
+    !> Steps of the long run (10^5 steps of h = 1/8: t = 12500), and its range.
     integer, parameter :: default_long_steps = 100000
+    integer, parameter :: min_long_steps = 100, max_long_steps = 100000000
     !> Rows per method of long_run.csv (each the maximum over a window of steps).
     integer, parameter :: long_rows = 1000
 
@@ -63,8 +69,7 @@ module holosym_cli_figures
     type, extends(step_observer) :: node_recorder
         class(constrained_hamiltonian), allocatable :: sys
         real(wp), allocatable :: nodes(:)    !! displacement nodes d_0..d_M on [0, 1]
-        integer :: unit = -1
-        integer :: io_status = 0
+        type(output_t), pointer :: file => null() !! fig5_constraints.csv
     contains
         procedure :: observe => node_observe
     end type node_recorder
@@ -76,7 +81,7 @@ module holosym_cli_figures
         character(len=:), allocatable :: method
         real(wp) :: energy0 = 0
         integer :: window = 1
-        integer :: unit = -1
+        type(output_t), pointer :: file => null() !! long_run.csv
         real(wp) :: energy_max = 0, position_max = 0, velocity_max = 0
     contains
         procedure :: observe => window_observe
@@ -112,7 +117,7 @@ contains
             "Options:", &
             "  --out DIR         directory of the CSV files (created)", &
             "  --figure LIST     comma-separated names above, or all (default all)", &
-            "  --long-steps N    steps of the long run, N >= 100 (default 100000)", &
+            "  --long-steps N    steps of the long run, 100..100000000 (default 100000)", &
             "  --quick           short runs (the test suite's variant): 20 s (linkage 10 s),", &
             "                    2000 long-run steps, M <= 4 and h >= 1/16 for convergence", &
             "  --help            this text"])
@@ -148,9 +153,8 @@ contains
                 case ("--figure")
                     call parse_figure_list(value, options%figures, status)
                 case ("--long-steps")
-                    call parse_integer(name, value, options%long_steps, status)
-                    if (status%ok() .and. options%long_steps < 100) call fail(status, &
-                        "option --long-steps must be >= 100; got '" // value // "'")
+                    call parse_integer_in(name, value, min_long_steps, max_long_steps, &
+                                          options%long_steps, status)
                     steps_given = .true.
                 end select
                 if (.not. status%ok()) return
@@ -203,20 +207,8 @@ contains
         integer, intent(in) :: err_unit                !! progress lines
         type(holosym_status_t), intent(out) :: status  !! outcome
         real(wp) :: span, linkage_span
-        integer :: exit_code, command_status
-        character(len=256) :: command_message
-        ! With cmdstat present a failed command is reported, not fatal (some compilers
-        ! stop the program on a non-zero exit status otherwise).
-        exit_code = 0
-        command_message = ""
-        call execute_command_line("mkdir -p '" // options%out_dir // "'", exitstat=exit_code, &
-                                  cmdstat=command_status, cmdmsg=command_message)
-        if (exit_code /= 0 .or. command_status /= 0) then
-            call fail(status, "cannot create the directory '" // options%out_dir // "'")
-            return
-        end if
-        status%code = HOLOSYM_SUCCESS
-        status%message = ""
+        call make_directories(options%out_dir, status)
+        if (.not. status%ok()) return
         span = 200
         linkage_span = 20
         if (options%quick) then
@@ -298,9 +290,10 @@ contains
             type(spring_linkage) :: sys
             type(constrained_integrator) :: integrator
             type(node_recorder) :: recorder
+            type(output_t), target :: file
+            type(holosym_status_t) :: written
             real(wp) :: q(6), p(6)
             real(wp), allocatable :: weights(:)
-            integer :: ios
             sys = spring_linkage()
             call sys%initial_state(q, p)
             call integrator%init(sys, 2, 1, 3, status)
@@ -308,18 +301,14 @@ contains
             allocate (recorder%sys, source=sys)
             allocate (recorder%nodes(3), weights(3))
             call gauss_lobatto(recorder%nodes, weights)
-            open (newunit=recorder%unit, file=path("fig5_constraints.csv"), status="replace", &
-                  action="write", iostat=ios)
-            if (ios /= 0) then
-                call fail(status, "cannot write " // path("fig5_constraints.csv"))
-                return
-            end if
-            write (recorder%unit, '(a)') "t,step,node,phi1,phi2,phi3,phi_sum"
+            call open_output(path("fig5_constraints.csv"), file, status)
+            if (.not. status%ok()) return
+            recorder%file => file
+            call file%line("t,step,node,phi1,phi2,phi3,phi_sum")
             call integrator%integrate(sys, q, p, 0.5_wp, nint(run_span / 0.5_wp), recorder, &
                                       status=status)
-            close (recorder%unit)
-            if (recorder%io_status /= 0) call fail(status, "cannot write " // &
-                path("fig5_constraints.csv"))
+            call file%close(written)
+            if (.not. written%ok()) status = written
         end subroutine node_run
 
         !> The long run of the three methods on the pendulum, h = 1/8.
@@ -330,19 +319,17 @@ contains
             type(constrained_integrator) :: integrator
             type(rattle_integrator) :: rattle
             type(window_recorder) :: recorder
-            type(holosym_status_t) :: breakdown
+            type(holosym_status_t) :: breakdown, written
+            type(output_t), target :: file
             real(wp), parameter :: h = 0.125_wp
             real(wp) :: q(3), p(3)
-            integer :: ios, k
+            integer :: k
             sys = spherical_pendulum()
-            open (newunit=recorder%unit, file=path("long_run.csv"), status="replace", &
-                  action="write", iostat=ios)
-            if (ios /= 0) then
-                call fail(status, "cannot write " // path("long_run.csv"))
-                return
-            end if
-            write (recorder%unit, '(a)') "method,step,t,energy_error,constraint_residual," // &
-                "velocity_residual"
+            call open_output(path("long_run.csv"), file, status)
+            if (.not. status%ok()) return
+            recorder%file => file
+            call file%line("method,step,t,energy_error,constraint_residual," // &
+                "velocity_residual")
             allocate (recorder%sys, source=sys)
             recorder%window = max(1, steps / long_rows)
             call sys%initial_state(q, p)
@@ -359,7 +346,7 @@ contains
                 rattle%separable = .true.
                 call rattle%init(sys, 4, "triple-jump", status)
                 do k = 1, steps
-                    if (.not. status%ok()) exit
+                    if (.not. status%ok() .or. file%failed()) exit
                     call rattle%step(sys, q, p, h, status)
                     call record_window(recorder, k, k * h, q, p)
                 end do
@@ -367,10 +354,11 @@ contains
             ! Classical Runge-Kutta on the index-1 form, order 4. Its drift off the manifold
             ! ends in an instability: the run stops when the relative energy error passes 1
             ! (or the right-hand side breaks down), which is part of what the figure shows.
-            if (status%ok()) then
+            if (status%ok() .and. .not. file%failed()) then
                 call sys%initial_state(q, p)
                 recorder%method = "rk4-index1"
                 do k = 1, steps
+                    if (file%failed()) exit
                     call rk4_step(sys, q, p, h, breakdown)
                     if (breakdown%ok() .and. .not. abs(sys%hamiltonian(q, p) / &
                         recorder%energy0 - 1) <= 1) call fail(breakdown, &
@@ -384,7 +372,9 @@ contains
                     call record_window(recorder, k, k * h, q, p)
                 end do
             end if
-            close (recorder%unit)
+            ! A failed write stops the run (the observer halts it): report the write.
+            call file%close(written)
+            if (.not. written%ok()) status = written
         end subroutine long_run
 
         !> Energy and global error at T = 10 against h for M = 1..8 (quick: 1..4).
@@ -395,8 +385,9 @@ contains
             real(wp), parameter :: run_span = 10
             real(wp) :: q_ref(3), energy_error, q_end(3), h
             real(wp), allocatable :: steps(:)
-            integer :: unit, ios, order_m, max_m, k, reference_steps
+            integer :: order_m, max_m, k, reference_steps
             type(holosym_status_t) :: local
+            type(output_t) :: file
             sys = spherical_pendulum()
             max_m = 8
             steps = [0.5_wp, 0.25_wp, 0.125_wp, 0.0625_wp, 0.03125_wp, 0.015625_wp]
@@ -409,28 +400,25 @@ contains
             call fixed_run(sys, 8, run_span / reference_steps, reference_steps, q_ref, &
                            energy_error, status)
             if (.not. status%ok()) return
-            open (newunit=unit, file=path("convergence.csv"), status="replace", &
-                  action="write", iostat=ios)
-            if (ios /= 0) then
-                call fail(status, "cannot write " // path("convergence.csv"))
-                return
-            end if
-            write (unit, '(a)') "M,N,G,h,energy_error,global_error,status"
+            call open_output(path("convergence.csv"), file, status)
+            if (.not. status%ok()) return
+            call file%line("M,N,G,h,energy_error,global_error,status")
             do order_m = 1, max_m
                 do k = 1, size(steps)
                     h = steps(k)
                     call fixed_run(sys, order_m, h, nint(run_span / h), q_end, energy_error, &
                                    local)
-                    write (unit, '(a)') int_str(order_m) // "," // int_str(order_m - 1) // &
+                    call file%line(int_str(order_m) // "," // int_str(order_m - 1) // &
                         "," // int_str(order_m + 1) // "," // csv_real(h) // "," // &
                         csv_real(energy_error) // "," // csv_real(maxval(abs(q_end - q_ref))) &
-                        // "," // csv_integer(local%code)
+                        // "," // csv_integer(local%code))
                     ! Finer steps only show the round-off floor.
                     if (maxval(abs(q_end - q_ref)) < 1.0e4_wp * epsilon(1.0_wp) .and. &
                         local%ok()) exit
                 end do
             end do
-            close (unit)
+            call file%close(status)
+            if (.not. status%ok()) return
             write (err_unit, '(a)') "holosym figures: convergence reference (M = 8, h = " // &
                 "10/" // int_str(reference_steps) // ")"
         end subroutine convergence_run
@@ -490,7 +478,7 @@ contains
         real(wp) :: qn(self%sys%n), pn(self%sys%n), lambda(self%sys%m), phi(self%sys%m)
         real(wp) :: tn
         type(holosym_status_t) :: status
-        integer :: i, first, ios
+        integer :: i, first
         first = 2
         if (step == 1) first = 1
         do i = first, size(self%nodes)
@@ -502,11 +490,10 @@ contains
                 return
             end if
             call self%sys%constraint(qn, phi)
-            write (self%unit, '(a)', iostat=ios) csv_real(tn) // "," // int_str(step) // "," // &
+            call self%file%line(csv_real(tn) // "," // int_str(step) // "," // &
                 int_str(i - 1) // "," // csv_real(phi(1)) // "," // csv_real(phi(2)) // "," // &
-                csv_real(phi(3)) // "," // csv_real(sum(phi))
-            if (ios /= 0) then
-                self%io_status = ios
+                csv_real(phi(3)) // "," // csv_real(sum(phi)))
+            if (self%file%failed()) then
                 halt = .true.
                 return
             end if
@@ -521,6 +508,7 @@ contains
         type(step_info_t), intent(in) :: info
         logical, intent(inout) :: halt
         call record_window(self, step, t, q, p)
+        if (self%file%failed()) halt = .true.
     end subroutine window_observe
 
     !> Update the window's maxima with the state after `step`; write a row at the window's
@@ -536,9 +524,9 @@ contains
         self%position_max = max(self%position_max, position)
         self%velocity_max = max(self%velocity_max, velocity)
         if (mod(step, self%window) == 0) then
-            write (self%unit, '(a)') self%method // "," // int_str(step) // "," // &
+            call self%file%line(self%method // "," // int_str(step) // "," // &
                 csv_real(t) // "," // csv_real(self%energy_max) // "," // &
-                csv_real(self%position_max) // "," // csv_real(self%velocity_max)
+                csv_real(self%position_max) // "," // csv_real(self%velocity_max))
             self%energy_max = 0
             self%position_max = 0
             self%velocity_max = 0
@@ -546,16 +534,16 @@ contains
     end subroutine record_window
 
     !> `holosym figures [options]`: parse, run. Exit 0 success, 1 failure, 2 usage.
-    subroutine figures_command(args, out_unit, err_unit, exit_code)
+    subroutine figures_command(args, out, err_unit, exit_code)
         type(cli_argument_t), intent(in) :: args(:) !! the command's arguments
-        integer, intent(in) :: out_unit   !! help
+        type(output_t), intent(inout) :: out !! the help
         integer, intent(in) :: err_unit   !! progress and errors
         integer, intent(out) :: exit_code !! process exit code
         type(figures_options_t) :: options
         type(holosym_status_t) :: status
         call parse_figures_options(args, options, status)
         if (.not. parsed_command_proceeds("figures", status, options%help, figures_help(), &
-                                          out_unit, err_unit, exit_code)) return
+                                          out, err_unit, exit_code)) return
         call run_figures(options, err_unit, status)
         if (.not. status%ok()) then
             write (err_unit, '(a)') "holosym figures: error: " // &

@@ -9,15 +9,17 @@ module holosym_cli_simulate
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
     use holosym_status, only: holosym_status_t, status_code_name, int_str, real_str, &
-        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_USER_ABORT
+        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_manifold, only: manifold_residuals
     use holosym_observers, only: trajectory_header
     use holosym_systems, only: make_system, is_system_name, system_names, system_choices, &
         default_links, max_links
+    use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
+    use holosym_output, only: output_t, open_output
     use holosym_cli_common, only: parsed_command_proceeds, &
-        cli_argument_t, split_option, option_value, parse_integer, &
+        cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
     implicit none
     private
@@ -97,7 +99,7 @@ module holosym_cli_simulate
     !> Observer writing CSV rows and collecting the summary.
     type, extends(step_observer) :: csv_writer
         class(constrained_hamiltonian), allocatable :: sys !! the system, for H and residuals
-        integer :: unit = 0            !! unit of the CSV rows
+        type(output_t), pointer :: sink => null() !! where the CSV rows go
         integer :: err_unit = 0        !! unit of the progress lines
         integer :: every = default_every !! row stride
         integer :: total_steps = 0     !! steps of the run (the last one is always written)
@@ -110,8 +112,6 @@ module holosym_cli_simulate
         integer(int64) :: clock_rate = 1  !! system_clock ticks per second
         integer(int64) :: clock_last = 0  !! system_clock at the last progress line
         type(simulate_summary_t) :: summary !! counts and maxima so far
-        integer :: io_status = 0       !! iostat of a failed write, else 0
-        character(len=:), allocatable :: io_message !! iomsg of a failed write
     contains
         !> Write rows and update the summary after each step.
         procedure :: observe => csv_writer_observe
@@ -149,16 +149,19 @@ contains
             "                           symmetry (n = 3, m = 1)              [pendulum]", &
             "  --links K      links of the chain, 1 to 100000; cost and memory per step", &
             "                 grow linearly with K                           [8]", &
-            "  --M INT        degree of the displacement polynomial, >= 1    [2]", &
-            "  --N INT        degree of the momentum polynomial, >= 0        [M - 1]", &
-            "  --G INT        Gauss-Legendre points, >= 1                    [max(M, N) + 1]", &
+            "  --M INT        degree of the displacement polynomial, 1..30   [2]", &
+            "  --N INT        degree of the momentum polynomial, 0..30       [M - 1]", &
+            "  --G INT        Gauss-Legendre points, N+1..64                 [max(M, N) + 1]", &
             "  --h REAL       step size, > 0; e.g. 0.0625, 6.25e-2 or 1/16   [0.0625]", &
             "  --T REAL       final time, >= 0; nint(T/h) steps are taken    [10]", &
-            "                 (a note goes to standard error if T is not a multiple of h)", &
-            "  --steps INT    number of steps, >= 0; overrides --T", &
-            "  --every INT    write a row every INT steps, >= 1; the rows at t = 0 and", &
-            "                 after the last step are always written         [1]", &
+            "                 (a note goes to standard error if T is not a multiple of h;", &
+            "                 T/h must give 1..2147483647 steps when T > 0)", &
+            "  --steps INT    number of steps, 0..2147483647; overrides --T", &
+            "  --every INT    write a row every INT steps, 1..2147483647; the rows at", &
+            "                 t = 0 and after the last step are always written [1]", &
             "  --output FILE  write the CSV to FILE instead of standard output", &
+            "  Numbers: magnitudes from 1e-4931 to 1e+4931 (real64 build: 1e-307 to", &
+            "  1e+307), or 0; a quotient a/b is checked the same way.", &
             "  --plain        the general scheme (momenta as unknowns) by full Newton with", &
             "                 the real128 LU, none of the speed options", &
             "                 (simplified Newton, real64 LU and pre-solve, first-order", &
@@ -175,7 +178,8 @@ contains
             "  newton_iterations    Newton iterations of the step (0 at t = 0)", &
             "", &
             "Progress and a summary go to standard error. Exit status: 0 success, 1 failure", &
-            "of the integrator or of the output (rows already written are kept), 2 bad usage.", &
+            "of the integrator or of the output (rows already written are kept; a full disk,", &
+            "a full device or a closed standard output is a failure), 2 bad usage.", &
             "", &
             "Example:", &
             "  holosym simulate --system linkage --M 3 --N 2 --G 4 --h 0.0625 --T 1"])
@@ -256,10 +260,31 @@ contains
         end if
         if (.not. n_given) config%order_n = config%order_m - 1
         if (.not. g_given) config%gauss_points = max(config%order_m, config%order_n) + 1
+        if (config%gauss_points < config%order_n + 1) then
+            ! Singular for every system: say so here, naming the defaults taken.
+            if (n_given) then
+                call fail(status, "options --G and --N: G = " // int_str(config%gauss_points) &
+                    // " must be at least N + 1 = " // int_str(config%order_n + 1))
+            else
+                call fail(status, "option --G: G = " // int_str(config%gauss_points) // &
+                    " must be at least N + 1 = " // int_str(config%order_n + 1) // &
+                    " (N is M - 1 when --N is not given)")
+            end if
+            return
+        end if
         if (.not. steps_given) then
             call resolve_steps(config, status)
+            if (.not. status%ok()) return
         else if (t_given) then
             config%note = "--steps " // int_str(config%steps) // " overrides --T"
+        end if
+        ! The times k h of the rows must be representable.
+        if (config%steps > 0) then
+            if (exponent(config%step_size) + bit_size(config%steps) >= &
+                maxexponent(config%step_size)) then
+                call fail(status, "options --h and --steps: the final time steps * h " // &
+                    "exceeds the largest number")
+            end if
         end if
     end subroutine parse_simulate_options
 
@@ -280,14 +305,11 @@ contains
                     "'; choose " // system_choices)
             end if
         case ("--M", "--m")
-            call parse_integer(name, value, config%order_m, status)
-            if (status%ok()) call require(config%order_m >= 1, ">= 1")
+            call parse_integer_in(name, value, 1, max_order_m, config%order_m, status)
         case ("--N", "--n")
-            call parse_integer(name, value, config%order_n, status)
-            if (status%ok()) call require(config%order_n >= 0, ">= 0")
+            call parse_integer_in(name, value, 0, max_order_n, config%order_n, status)
         case ("--G", "--g")
-            call parse_integer(name, value, config%gauss_points, status)
-            if (status%ok()) call require(config%gauss_points >= 1, ">= 1")
+            call parse_integer_in(name, value, 1, max_gauss_points, config%gauss_points, status)
         case ("--h")
             call parse_real(name, value, config%step_size, status)
             if (status%ok()) call require(config%step_size > 0, "> 0")
@@ -295,11 +317,9 @@ contains
             call parse_real(name, value, config%final_time, status)
             if (status%ok()) call require(config%final_time >= 0, ">= 0")
         case ("--steps")
-            call parse_integer(name, value, config%steps, status)
-            if (status%ok()) call require(config%steps >= 0, ">= 0")
+            call parse_integer_in(name, value, 0, huge(1), config%steps, status)
         case ("--every")
-            call parse_integer(name, value, config%every, status)
-            if (status%ok()) call require(config%every >= 1, ">= 1")
+            call parse_integer_in(name, value, 1, huge(1), config%every, status)
         case ("--output")
             config%output = value
         case ("--links")
@@ -318,18 +338,33 @@ contains
     end subroutine set_option
 
     !> Number of steps from T and h: nint(T/h), with a note when T/h is not an integer
-    !! within round-off, and a failure when it does not fit an integer.
+    !! within round-off, and a failure when it does not fit an integer or rounds to 0 for
+    !! T > 0.
     subroutine resolve_steps(config, status)
         type(simulate_config_t), intent(inout) :: config !! settings; `steps` is set
         type(holosym_status_t), intent(inout) :: status  !! failure when T/h is too large
         real(wp) :: ratio
+        ! Decided on the exponents first: T/h must not overflow.
+        if (config%final_time > 0) then
+            if (exponent(config%final_time) - exponent(config%step_size) > &
+                bit_size(config%steps)) then
+                call fail(status, "options --T and --h: T/h is more than " // &
+                    int_str(huge(config%steps)) // " steps")
+                return
+            end if
+        end if
         ratio = config%final_time / config%step_size
-        if (.not. (ratio <= real(huge(config%steps), wp))) then
+        if (ratio > real(huge(config%steps), wp)) then
             call fail(status, "options --T and --h: T/h is more than " // &
                 int_str(huge(config%steps)) // " steps")
             return
         end if
         config%steps = nint(ratio)
+        if (config%steps == 0 .and. config%final_time > 0) then
+            call fail(status, "options --T and --h: T/h rounds to 0 steps (T is less than " &
+                // "h/2); give a larger T, a smaller h or --steps")
+            return
+        end if
         if (abs(ratio - config%steps) > multiple_tolerance * max(1.0_wp, ratio)) then
             config%note = "T = " // real_str(config%final_time) // " is not a multiple of h = " &
                 // real_str(config%step_size) // "; taking nint(T/h) = " // &
@@ -349,13 +384,14 @@ contains
         header = trajectory_header(n, m)
     end function csv_header
 
-    !> Run `simulate` with parsed settings: CSV to `out_unit` (or to `config%output`),
-    !! a start line, a note if any and a summary to `err_unit`. Fails with the integrator's
-    !! status (rows already written are kept and flushed), HOLOSYM_INVALID_ARGUMENT when
-    !! the output file cannot be opened, or HOLOSYM_USER_ABORT when a row cannot be written.
-    subroutine run_simulate(config, out_unit, err_unit, status, summary)
+    !> Run `simulate` with parsed settings: CSV to `out` (or to `config%output`), a start
+    !! line, a note if any and a summary to `err_unit`. Fails with the integrator's status
+    !! (rows already written are kept and flushed), or HOLOSYM_INVALID_ARGUMENT when the
+    !! output file cannot be opened or a row cannot be written (full disk or device,
+    !! closed standard output: the run stops there).
+    subroutine run_simulate(config, out, err_unit, status, summary)
         type(simulate_config_t), intent(in) :: config  !! settings from parse_simulate_options
-        integer, intent(in) :: out_unit  !! open unit for the CSV (unless config%output is set)
+        type(output_t), intent(inout), target :: out   !! the CSV (unless config%output is set)
         integer, intent(in) :: err_unit  !! open unit for progress and summary
         type(holosym_status_t), intent(out) :: status  !! outcome
         type(simulate_summary_t), intent(out), optional :: summary !! counts and maxima
@@ -363,10 +399,11 @@ contains
         type(constrained_integrator) :: integrator
         type(csv_writer) :: writer
         type(step_info_t) :: no_step
+        type(output_t), target :: file
+        type(holosym_status_t) :: written
         real(wp), allocatable :: q(:), p(:)
         integer(int64) :: clock_end
-        integer :: unit, ios, steps_done
-        character(len=256) :: io_message
+        integer :: steps_done
 
         call make_system(config%system, sys, q, p, status, config%links)
         if (.not. status%ok()) return
@@ -379,15 +416,15 @@ contains
         end if
         call integrator%init(sys, config%order_m, config%order_n, config%gauss_points, status)
         if (.not. status%ok()) return
-        unit = out_unit
+        writer%sink => out
         if (len(config%output) > 0) then
-            open (newunit=unit, file=config%output, status="replace", action="write", &
-                  iostat=ios, iomsg=io_message)
-            if (ios /= 0) then
-                call fail(status, "cannot open --output '" // config%output // "': " // &
-                    trim(io_message))
+            call open_output(config%output, file, status)
+            if (.not. status%ok()) then
+                ! "cannot open 'FILE': reason" -> "cannot open --output 'FILE': reason"
+                status%message = "cannot open --output " // status%message(13:)
                 return
             end if
+            writer%sink => file
         end if
         if (len(config%note) > 0) write (err_unit, '(a)') "holosym simulate: note: " // &
             config%note
@@ -400,7 +437,6 @@ contains
         flush (err_unit)
 
         allocate (writer%sys, source=sys)
-        writer%unit = unit
         writer%err_unit = err_unit
         writer%every = config%every
         writer%total_steps = config%steps
@@ -415,11 +451,8 @@ contains
         call manifold_residuals(sys, q, p, writer%position0, writer%velocity0)
         call system_clock(writer%clock_start, writer%clock_rate)
         writer%clock_last = writer%clock_start
-        write (unit, '(a)', iostat=ios, iomsg=io_message) csv_header(sys%n, sys%m)
-        if (ios /= 0) then
-            writer%io_status = ios
-            writer%io_message = trim(io_message)
-        else if (config%steps == 0) then
+        call writer%sink%line(csv_header(sys%n, sys%m))
+        if (config%steps == 0) then
             allocate (no_step%lambda(sys%m, 0:0))
             no_step%lambda = ieee_value(1.0_wp, ieee_quiet_nan)
             call write_initial_row(writer, no_step)
@@ -430,13 +463,20 @@ contains
         end if
         call system_clock(clock_end)
         writer%summary%wall_time = real(clock_end - writer%clock_start, wp) / writer%clock_rate
-        if (writer%io_status /= 0) then
-            status%code = HOLOSYM_USER_ABORT
-            status%message = "writing the CSV failed after " // &
-                int_str(writer%summary%steps_done) // " steps: " // writer%io_message
+        ! Everything written so far reaches its file (or fails) before the summary.
+        if (associated(writer%sink, file)) then
+            call file%close(written)
+        else
+            call out%flush()
+            written%code = HOLOSYM_SUCCESS
+            if (out%failed()) call out%close(written)
         end if
-        flush (unit, iostat=ios)
-        if (unit /= out_unit) close (unit, iostat=ios)
+        if (.not. written%ok()) then
+            writer%summary%rows = 0
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "writing the CSV failed after " // &
+                int_str(writer%summary%steps_done) // " steps: " // written%message
+        end if
         call write_summary(err_unit, writer%summary)
         if (present(summary)) summary = writer%summary
     end subroutine run_simulate
@@ -476,7 +516,7 @@ contains
 
         if (step == 1) then
             call write_initial_row(self, info)
-            if (self%io_status /= 0) then
+            if (self%sink%failed()) then
                 halt = .true.
                 return
             end if
@@ -496,7 +536,7 @@ contains
             call write_row(self, t, q, p, info%lambda(:, ubound(info%lambda, 2)), energy, &
                            energy_error, info%constraint_residual, info%velocity_residual, &
                            info%newton_iterations)
-            if (self%io_status /= 0) halt = .true.
+            if (self%sink%failed()) halt = .true.
         end if
         call system_clock(clock_now)
         elapsed = real(clock_now - self%clock_last, wp) / self%clock_rate
@@ -523,7 +563,7 @@ contains
                        0.0_wp, writer%position0, writer%velocity0, 0)
     end subroutine write_initial_row
 
-    !> Write one CSV row; an I/O failure is recorded in the writer.
+    !> Write one CSV row (a failure stays recorded in the sink).
     subroutine write_row(writer, t, q, p, lambda, energy, energy_error, position, velocity, &
                          iterations)
         type(csv_writer), intent(inout) :: writer !! the writer
@@ -537,35 +577,39 @@ contains
         real(wp), intent(in) :: velocity       !! hidden-constraint residual
         integer, intent(in) :: iterations      !! Newton iterations
         character(len=:), allocatable :: line
-        character(len=256) :: io_message
-        integer :: i, ios
+        integer :: i, used
 
-        line = csv_real(t)
+        ! Filled in place: appending field by field would copy the line once per field,
+        ! which for a chain of 10^5 links (4 10^5 fields) takes minutes.
+        allocate (character(len=(size(q) + size(p) + size(lambda) + 6) * 64) :: line)
+        used = 0
+        call put(csv_real(t))
         do i = 1, size(q)
-            line = line // "," // csv_real(q(i))
+            call put("," // csv_real(q(i)))
         end do
         do i = 1, size(p)
-            line = line // "," // csv_real(p(i))
+            call put("," // csv_real(p(i)))
         end do
         do i = 1, size(lambda)
-            line = line // "," // csv_real(lambda(i))
+            call put("," // csv_real(lambda(i)))
         end do
-        line = line // "," // csv_real(energy) // "," // csv_real(energy_error) // "," // &
-            csv_real(position) // "," // csv_real(velocity) // "," // csv_integer(iterations)
-        write (writer%unit, '(a)', iostat=ios, iomsg=io_message) line
-        if (ios /= 0) then
-            writer%io_status = ios
-            writer%io_message = trim(io_message)
-        else
-            writer%summary%rows = writer%summary%rows + 1
-        end if
+        call put("," // csv_real(energy) // "," // csv_real(energy_error) // "," // &
+            csv_real(position) // "," // csv_real(velocity) // "," // csv_integer(iterations))
+        call writer%sink%line(line(:used))
+        if (.not. writer%sink%failed()) writer%summary%rows = writer%summary%rows + 1
+    contains
+        subroutine put(text)
+            character(len=*), intent(in) :: text
+            line(used + 1:used + len(text)) = text
+            used = used + len(text)
+        end subroutine put
     end subroutine write_row
 
     !> `holosym simulate ARGS`: parse, run, report. Usage errors and failures go to
     !! `err_unit`; `exit_code` is EXIT_OK, EXIT_FAILURE (run failed) or EXIT_USAGE.
-    subroutine simulate_command(args, out_unit, err_unit, exit_code)
+    subroutine simulate_command(args, out, err_unit, exit_code)
         type(cli_argument_t), intent(in) :: args(:) !! arguments after "simulate"
-        integer, intent(in) :: out_unit   !! unit for the CSV and the help
+        type(output_t), intent(inout), target :: out !! the CSV and the help
         integer, intent(in) :: err_unit   !! unit for messages
         integer, intent(out) :: exit_code !! process exit code
         type(simulate_config_t) :: config
@@ -573,10 +617,14 @@ contains
 
         call parse_simulate_options(args, config, status)
         if (parsed_command_proceeds("simulate", status, config%help, simulate_help(), &
-                                    out_unit, err_unit, exit_code)) then
-            call run_simulate(config, out_unit, err_unit, status)
+                                    out, err_unit, exit_code)) then
+            call run_simulate(config, out, err_unit, status)
             if (status%ok()) then
                 exit_code = EXIT_OK
+            else if (status%code == HOLOSYM_INVALID_ARGUMENT) then
+                ! The output (file, device, standard output): its own message.
+                write (err_unit, '(a)') "holosym simulate: error: " // status%message
+                exit_code = EXIT_FAILURE
             else
                 write (err_unit, '(a)') "holosym simulate: error: " // &
                     status_code_name(status%code) // ": " // status%message

@@ -14,8 +14,10 @@ module holosym_cli_tables
     use holosym_linalg, only: default_pivot_tolerance
     use holosym_convergence, only: order_cell_t, study_settings_t, paper_order_law, &
         run_order_cells, minimum_gauss_points, reference_solution
+    use holosym_scheme, only: max_order_m, max_order_n
+    use holosym_output, only: output_t, open_output, make_directories
     use holosym_cli_common, only: parsed_command_proceeds, &
-        cli_argument_t, split_option, option_value, parse_integer, &
+        cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
     use holosym_systems, only: make_system, is_system_name, system_names, system_choices
     use holosym_task_farm, only: farm_job, task_farm
@@ -45,6 +47,8 @@ module holosym_cli_tables
     real(wp), parameter :: trial_step = 0.125_wp
     !> Table 3 entry of a search that failed for a reason other than singularity.
     integer, parameter :: search_failed = -1
+    !> Most steps of one run (T/h for every step size): a bound on the time of a table.
+    integer, parameter :: max_run_steps = 1000000
 
     !> Options of `holosym tables`.
     type :: tables_options_t
@@ -105,13 +109,15 @@ contains
             "Options:", &
             "  --system NAME   pendulum (default), linkage, planar, double, dumbbell,", &
             "                  magnetic or generic (see holosym simulate --help)", &
-            "  --T T           time span of every run (default 10)", &
-            "  --h LIST        step sizes, largest first, comma separated", &
-            "                  (default 0.5,0.25,0.125,0.0625,0.03125)", &
-            "  --Mmax M        largest M of Table 1 (default 7)", &
-            "  --Nmax N        largest N of Table 1 (default 7)", &
+            "  --T T           time span of every run, > 0 (default 10)", &
+            "  --h LIST        step sizes, largest first, comma separated, > 0", &
+            "                  (default 0.5,0.25,0.125,0.0625,0.03125); T/h must give", &
+            "                  1..1000000 steps for every step size", &
+            "  --Mmax M        largest M of Table 1, 1..30 (default 7)", &
+            "  --Nmax N        largest N of Table 1, 0..30 (default 7)", &
             "  --quick         M, N <= 3 and h down to 1/16 (under a minute)", &
-            "  --csv DIR       also write DIR/table1.csv, table2.csv, table3.csv", &
+            "  --csv DIR       also write DIR/table1.csv, table2.csv, table3.csv (DIR is", &
+            "                  created when missing)", &
             "  --help          this text"])
     end function tables_help
 
@@ -157,14 +163,10 @@ contains
                     call parse_step_list(value, options%step_sizes, status)
                     h_given = .true.
                 case ("--Mmax")
-                    call parse_integer(name, value, options%max_m, status)
-                    if (status%ok() .and. options%max_m < 1) call fail(status, &
-                        "option --Mmax must be >= 1; got '" // value // "'")
+                    call parse_integer_in(name, value, 1, max_order_m, options%max_m, status)
                     m_given = .true.
                 case ("--Nmax")
-                    call parse_integer(name, value, options%max_n, status)
-                    if (status%ok() .and. options%max_n < 0) call fail(status, &
-                        "option --Nmax must be >= 0; got '" // value // "'")
+                    call parse_integer_in(name, value, 0, max_order_n, options%max_n, status)
                     n_given = .true.
                 case ("--csv")
                     options%csv_dir = value
@@ -182,7 +184,32 @@ contains
             if (.not. h_given) options%step_sizes = default_steps(1:4)
         end if
         if (.not. h_given .and. .not. options%quick) options%step_sizes = default_steps
+        call check_step_counts(options%span, options%step_sizes, status)
     end subroutine parse_tables_options
+
+    !> Every run takes nint(T/h) steps: 1..max_run_steps for each step size (decided on the
+    !! exponents first, so that T/h cannot overflow).
+    subroutine check_step_counts(span, step_sizes, status)
+        real(wp), intent(in) :: span           !! T > 0
+        real(wp), intent(in) :: step_sizes(:)  !! h > 0
+        type(holosym_status_t), intent(inout) :: status
+        integer :: k
+        real(wp) :: ratio
+        do k = 1, size(step_sizes)
+            ratio = huge(1.0_wp)
+            if (exponent(span) - exponent(step_sizes(k)) <= bit_size(max_run_steps)) &
+                ratio = span / step_sizes(k)
+            if (ratio > max_run_steps) then
+                call fail(status, "options --T and --h: T/h is more than " // &
+                    int_str(max_run_steps) // " steps for h = " // step_text(step_sizes(k)))
+                return
+            else if (nint(ratio) < 1) then
+                call fail(status, "options --T and --h: T/h rounds to 0 steps for h = " // &
+                    step_text(step_sizes(k)) // " (T is less than h/2)")
+                return
+            end if
+        end do
+    end subroutine check_step_counts
 
     !> Parse "0.5,0.25,..." into step sizes: at least two, positive, strictly decreasing.
     subroutine parse_step_list(text, steps, status)
@@ -359,8 +386,13 @@ contains
         character(len=:), allocatable :: text
         real(wp) :: inverse
         character(len=32) :: buffer
+        logical :: is_reciprocal
         inverse = 1 / h
-        if (abs(inverse - nint(inverse)) <= 8 * epsilon(1.0_wp) * inverse .and. h < 1) then
+        is_reciprocal = .false.
+        ! nint only where it fits the default integer.
+        if (h < 1 .and. inverse < huge(1) / 2) is_reciprocal = &
+            abs(inverse - nint(inverse)) <= 8 * epsilon(1.0_wp) * inverse
+        if (is_reciprocal) then
             text = "1/" // int_str(nint(inverse))
         else
             write (buffer, '(g0.6)') real(h)
@@ -417,60 +449,60 @@ contains
     end function cell_text
 
     !> Write the three tables and a summary as Markdown.
-    subroutine write_tables_markdown(result, unit)
+    subroutine write_tables_markdown(result, out)
         type(tables_result_t), intent(in) :: result !! measurements
-        integer, intent(in) :: unit                 !! output unit
+        type(output_t), intent(inout) :: out        !! where the Markdown goes
         integer :: max_m, max_n, order_m, order_n, i, g, agree, measured, singular
         character(len=:), allocatable :: line
         logical :: energy
 
         max_m = size(result%min_gauss, 1)
         max_n = size(result%min_gauss, 2) - 1
-        write (unit, '(a)') "### holosym tables: system " // result%system // ", T = " // &
-            order_text(result%settings%span) // ", step sizes " // step_list(result)
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Cells: measured order / paper's law, ok when within " // &
+        call out%line("### holosym tables: system " // result%system // ", T = " // &
+            order_text(result%settings%span) // ", step sizes " // step_list(result))
+        call out%line("")
+        call out%line("Cells: measured order / paper's law, ok when within " // &
             order_text(agreement) // ", and the step pair (h1, h2) used. Energy error " // &
             "E = max_t |(H_t - H_0)/H_0|; global error max|q(T) - q_ref(T)| against M = " // &
             int_str(reference_order) // ", h = 1/32 (which differs from h = 1/16 by " // &
             real_str(result%reference_change) // "). Energy errors below " // &
             real_str(result%settings%error_floor) // " and global errors below " // &
             real_str(result%settings%global_floor) // " (100 times that change, at least " // &
-            "the same floor) are not used."
+            "the same floor) are not used.")
         do i = 1, 2
             energy = i == 1
-            write (unit, '(a)') ""
+            call out%line("")
             if (energy) then
-                write (unit, '(a)') "#### Table 1: order of the energy error, G = max(M, N) + 1"
+                call out%line("#### Table 1: order of the energy error, G = max(M, N) + 1")
             else
-                write (unit, '(a)') "#### Table 1b: order of the global error of q(T), " // &
-                    "G = max(M, N) + 1"
+                call out%line("#### Table 1b: order of the global error of q(T), " // &
+                    "G = max(M, N) + 1")
             end if
-            call write_grid_header(unit, max_n)
+            call write_grid_header(out, max_n)
             do order_m = 1, max_m
                 line = "| " // int_str(order_m) // " |"
                 do order_n = 0, max_n
                     line = line // " " // cell_text(result%table1((order_m - 1) * (max_n + 1) &
                         + order_n + 1), energy, paper_order_law(order_m, order_n)) // " |"
                 end do
-                write (unit, '(a)') line
+                call out%line(line)
             end do
             call count_agreement(result%table1, energy, agree, measured, singular)
-            write (unit, '(a)') ""
-            write (unit, '(a)') int_str(agree) // " of " // int_str(measured) // &
-                " measured cells agree with the law; " // int_str(singular) // " singular."
+            call out%line("")
+            call out%line(int_str(agree) // " of " // int_str(measured) // &
+                " measured cells agree with the law; " // int_str(singular) // " singular.")
         end do
 
-        write (unit, '(a)') ""
-        write (unit, '(a)') "#### Table 2: orders for M = N + 1 and G = M .. M + " // &
-            int_str(extra_gauss) // " (energy; global)"
-        write (unit, '(a)') ""
+        call out%line("")
+        call out%line("#### Table 2: orders for M = N + 1 and G = M .. M + " // &
+            int_str(extra_gauss) // " (energy; global)")
+        call out%line("")
         line = "| N | M |"
         do g = 0, extra_gauss
             line = line // " G = M + " // int_str(g) // " |"
         end do
-        write (unit, '(a)') line
-        write (unit, '(a)') "|---|---|" // repeat("---|", extra_gauss + 1)
+        call out%line(line)
+        call out%line("|---|---|" // repeat("---|", extra_gauss + 1))
         do i = 1, size(result%table2), extra_gauss + 1
             line = "| " // int_str(result%table2(i)%order_n) // " | " // &
                 int_str(result%table2(i)%order_m) // " |"
@@ -479,22 +511,22 @@ contains
                     paper_order_law(result%table2(i)%order_m, result%table2(i)%order_n)) // &
                     "; " // cell_text(result%table2(i + g), .false., -1) // " |"
             end do
-            write (unit, '(a)') line
+            call out%line(line)
         end do
         call count_agreement(result%table2, .true., agree, measured, singular)
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Energy: " // int_str(agree) // " of " // int_str(measured) // &
-            " measured cells agree with the law; " // int_str(singular) // " singular."
+        call out%line("")
+        call out%line("Energy: " // int_str(agree) // " of " // int_str(measured) // &
+            " measured cells agree with the law; " // int_str(singular) // " singular.")
 
-        write (unit, '(a)') ""
-        write (unit, '(a)') "#### Table 3: smallest G with a nonsingular Newton Jacobian " // &
-            "(paper: max(M, N) + 1)"
-        write (unit, '(a)') ""
-        write (unit, '(a)') "One step of h = " // step_text(trial_step) // " from the " // &
+        call out%line("")
+        call out%line("#### Table 3: smallest G with a nonsingular Newton Jacobian " // &
+            "(paper: max(M, N) + 1)")
+        call out%line("")
+        call out%line("One step of h = " // step_text(trial_step) // " from the " // &
             "initial state for G = 1, 2, ...; singular when a pivot of the row-equilibrated " // &
             "Jacobian is <= n_x * epsilon (n_x unknowns, e.g. " // &
-            real_str(default_pivot_tolerance(50)) // " for n_x = 50). Cell: found / paper."
-        call write_grid_header(unit, max_n)
+            real_str(default_pivot_tolerance(50)) // " for n_x = 50). Cell: found / paper.")
+        call write_grid_header(out, max_n)
         agree = 0
         do order_m = 1, max_m
             line = "| " // int_str(order_m) // " |"
@@ -511,29 +543,29 @@ contains
                     if (g == max(order_m, order_n) + 1) agree = agree + 1
                 end if
             end do
-            write (unit, '(a)') line
+            call out%line(line)
         end do
-        write (unit, '(a)') ""
-        write (unit, '(a)') int_str(agree) // " of " // int_str(size(result%min_gauss)) // &
+        call out%line("")
+        call out%line(int_str(agree) // " of " // int_str(size(result%min_gauss)) // &
             " cells have the paper's minimum G; " // &
-            int_str(count(result%min_gauss == 0)) // " are singular for every G tried."
-        write (unit, '(a)') ""
-        write (unit, '(a)') "Wall time: " // order_text(result%seconds) // " s"
+            int_str(count(result%min_gauss == 0)) // " are singular for every G tried.")
+        call out%line("")
+        call out%line("Wall time: " // order_text(result%seconds) // " s")
     end subroutine write_tables_markdown
 
     !> A blank line and the header of an M x N grid table with columns N = 0..max_n.
-    subroutine write_grid_header(unit, max_n)
-        integer, intent(in) :: unit
+    subroutine write_grid_header(out, max_n)
+        type(output_t), intent(inout) :: out
         integer, intent(in) :: max_n
         character(len=:), allocatable :: line
         integer :: order_n
-        write (unit, '(a)') ""
+        call out%line("")
         line = "| M \ N |"
         do order_n = 0, max_n
             line = line // " " // int_str(order_n) // " |"
         end do
-        write (unit, '(a)') line
-        write (unit, '(a)') "|---|" // repeat("---|", max_n + 1)
+        call out%line(line)
+        call out%line("|---|" // repeat("---|", max_n + 1))
     end subroutine write_grid_header
 
     function step_list(result) result(text)
@@ -567,51 +599,43 @@ contains
         end do
     end subroutine count_agreement
 
-    !> Write DIR/table1.csv, table2.csv (one row per cell) and table3.csv.
+    !> Write DIR/table1.csv, table2.csv (one row per cell) and table3.csv. Failure
+    !! (HOLOSYM_INVALID_ARGUMENT): a file that cannot be opened or written (also a full
+    !! disk), named with the system's reason.
     subroutine write_tables_csv(result, dir, status)
         type(tables_result_t), intent(in) :: result   !! measurements
         character(len=*), intent(in) :: dir           !! existing directory
         type(holosym_status_t), intent(out) :: status !! I/O failure
-        integer :: unit, ios, order_m, order_n
-        character(len=256) :: message
-        status%code = HOLOSYM_SUCCESS
-        status%message = ""
+        type(output_t) :: file
+        integer :: order_m, order_n
         call write_cells(dir // "/table1.csv", result%table1)
         if (.not. status%ok()) return
         call write_cells(dir // "/table2.csv", result%table2)
         if (.not. status%ok()) return
-        open (newunit=unit, file=dir // "/table3.csv", status="replace", action="write", &
-              iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            call fail(status, "cannot write " // dir // "/table3.csv: " // trim(message))
-            return
-        end if
-        write (unit, '(a)') "system,M,N,min_G_found,paper_min_G,max_G_tried"
+        call open_output(dir // "/table3.csv", file, status)
+        if (.not. status%ok()) return
+        call file%line("system,M,N,min_G_found,paper_min_G,max_G_tried")
         do order_m = 1, size(result%min_gauss, 1)
             do order_n = 0, size(result%min_gauss, 2) - 1
-                write (unit, '(a)') result%system // "," // int_str(order_m) // "," // &
+                call file%line(result%system // "," // int_str(order_m) // "," // &
                     int_str(order_n) // "," // int_str(result%min_gauss(order_m, order_n)) // &
                     "," // int_str(max(order_m, order_n) + 1) // "," // &
-                    int_str(max(order_m, order_n) + extra_gauss)
+                    int_str(max(order_m, order_n) + extra_gauss))
             end do
         end do
-        close (unit)
+        call file%close(status)
     contains
         subroutine write_cells(path, cells)
             character(len=*), intent(in) :: path
             type(order_cell_t), intent(in) :: cells(:)
             integer :: i
-            open (newunit=unit, file=path, status="replace", action="write", iostat=ios, &
-                  iomsg=message)
-            if (ios /= 0) then
-                call fail(status, "cannot write " // path // ": " // trim(message))
-                return
-            end if
-            write (unit, '(a)') "system,M,N,G,law,status,energy_h1,energy_h2,energy_E1," // &
+            call open_output(path, file, status)
+            if (.not. status%ok()) return
+            call file%line("system,M,N,G,law,status,energy_h1,energy_h2,energy_E1," // &
                 "energy_E2,energy_order,global_h1,global_h2,global_e1,global_e2," // &
-                "global_order,seconds"
+                "global_order,seconds")
             do i = 1, size(cells)
-                write (unit, '(a)') result%system // "," // int_str(cells(i)%order_m) // "," &
+                call file%line(result%system // "," // int_str(cells(i)%order_m) // "," &
                     // int_str(cells(i)%order_n) // "," // int_str(cells(i)%gauss_points) // &
                     "," // int_str(paper_order_law(cells(i)%order_m, cells(i)%order_n)) // "," &
                     // csv_integer(cells(i)%code) // "," // csv_real(cells(i)%energy_h(1)) // &
@@ -622,17 +646,17 @@ contains
                     "," // csv_real(cells(i)%global_h(2)) // "," // &
                     csv_real(cells(i)%global_error(1)) // "," // &
                     csv_real(cells(i)%global_error(2)) // "," // &
-                    csv_real(cells(i)%global_order) // "," // csv_real(cells(i)%seconds)
+                    csv_real(cells(i)%global_order) // "," // csv_real(cells(i)%seconds))
             end do
-            close (unit)
+            call file%close(status)
         end subroutine write_cells
     end subroutine write_tables_csv
 
     !> `holosym tables [options]`: parse, compute, write. Exit 0 success, 1 failure, 2 usage.
     !! With `farm` (holosym-mpi) the cells run on its ranks and only the collector writes.
-    subroutine tables_command(args, out_unit, err_unit, exit_code, farm)
+    subroutine tables_command(args, out, err_unit, exit_code, farm)
         type(cli_argument_t), intent(in) :: args(:) !! the command's arguments
-        integer, intent(in) :: out_unit   !! Markdown tables
+        type(output_t), intent(inout) :: out !! Markdown tables
         integer, intent(in) :: err_unit   !! progress and errors
         integer, intent(out) :: exit_code !! process exit code
         class(task_farm), intent(inout), optional :: farm !! who computes the cells
@@ -642,19 +666,19 @@ contains
 
         call parse_tables_options(args, options, status)
         if (.not. parsed_command_proceeds("tables", status, options%help, tables_help(), &
-                                          out_unit, err_unit, exit_code)) return
-        call compute_tables(options, result, err_unit, status, farm)
+                                          out, err_unit, exit_code)) return
+        ! The directory first: a run must not end with results it cannot keep.
+        if (len(options%csv_dir) > 0) call make_directories(options%csv_dir, status)
+        if (status%ok()) call compute_tables(options, result, err_unit, status, farm)
         if (present(farm)) then
             if (.not. farm%is_collector()) then
                 exit_code = merge(EXIT_OK, EXIT_FAILURE, status%ok())
                 return
             end if
         end if
-        if (status%ok()) call write_tables_markdown(result, out_unit)
-        if (status%ok() .and. len(options%csv_dir) > 0) then
-            call execute_command_line("mkdir -p '" // options%csv_dir // "'")
+        if (status%ok()) call write_tables_markdown(result, out)
+        if (status%ok() .and. len(options%csv_dir) > 0) &
             call write_tables_csv(result, options%csv_dir, status)
-        end if
         if (.not. status%ok()) then
             write (err_unit, '(a)') "holosym tables: " // status%message
             exit_code = EXIT_FAILURE

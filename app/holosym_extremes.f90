@@ -91,6 +91,8 @@ module holosym_extremes
         real(wp), allocatable :: deltas(:)      !! near-singular: rod excess delta over 2R
         integer :: near_steps = 32              !! near-singular: steps per run
         real(wp) :: near_step = 1.0_wp / 64     !! near-singular: step size
+        !> Most steps of any run of any study (huge: no bound; `bound_steps` sets it).
+        integer :: max_steps = huge(1)
     end type extremes_settings_t
 
     !> Study 1: the long run of the spherical pendulum.
@@ -703,17 +705,21 @@ contains
     !! once an error is at the floor) with the observed order of the last pair above it.
     !! Codes: HOLOSYM_INVALID_ARGUMENT (max_order outside 1..max_study_order, span <= 0,
     !! fewer than two step sizes, h <= 0).
-    subroutine run_high_order_study(max_order, step_sizes, span, rows, status, progress_unit)
+    subroutine run_high_order_study(max_order, step_sizes, span, rows, status, progress_unit, &
+                                    max_steps)
         integer, intent(in) :: max_order        !! largest M, 1..max_study_order
         real(wp), intent(in) :: step_sizes(:)   !! h values, largest first (> 0)
         real(wp), intent(in) :: span            !! time span of each run (> 0)
         type(high_order_row_t), allocatable, intent(out) :: rows(:) !! one per M
         type(holosym_status_t), intent(out), optional :: status !! invalid arguments
         integer, intent(in), optional :: progress_unit !! progress lines here
+        integer, intent(in), optional :: max_steps !! most steps of a run (default: none)
         type(spherical_pendulum), target :: sys
         real(wp) :: q0(3), p0(3)
-        integer :: order_m
+        integer :: order_m, limit
 
+        limit = huge(1)
+        if (present(max_steps)) limit = max_steps
         if (max_order < 1 .or. max_order > max_study_order) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "high-order study needs 1 <= " // &
                 "M <= " // int_str(max_study_order) // "; got " // int_str(max_order))
@@ -728,7 +734,7 @@ contains
         allocate (rows(max_order))
         !$omp parallel do schedule(dynamic, 1) private(order_m)
         do order_m = max_order, 1, -1
-            call high_order_row(sys, q0, p0, order_m, step_sizes, span, rows(order_m))
+            call high_order_row(sys, q0, p0, order_m, step_sizes, span, rows(order_m), limit)
             !$omp critical (extremes_progress)
             call progress(progress_unit, "high orders: M = " // int_str(order_m) // " done")
             !$omp end critical (extremes_progress)
@@ -738,13 +744,14 @@ contains
     end subroutine run_high_order_study
 
     !> One row of the high-order study.
-    subroutine high_order_row(sys, q0, p0, order_m, step_sizes, span, row)
+    subroutine high_order_row(sys, q0, p0, order_m, step_sizes, span, row, max_steps)
         type(spherical_pendulum), intent(in), target :: sys
         real(wp), intent(in) :: q0(:), p0(:), step_sizes(:), span
         integer, intent(in) :: order_m
         type(high_order_row_t), intent(out) :: row
         type(holosym_status_t) :: local
         real(wp) :: q_end(3)
+        integer, intent(in) :: max_steps !! most steps of a run
         integer :: k, steps
         integer(int64) :: start
 
@@ -763,7 +770,7 @@ contains
         row%codes = HOLOSYM_SUCCESS
         row%ran = .false.
         do k = 1, size(step_sizes)
-            steps = max(1, nint(span / step_sizes(k)))
+            steps = min(max(1, nint(span / step_sizes(k))), max_steps)
             row%ran(k) = .true.
             call fixed_run(sys, q0, p0, order_m, step_sizes(k), steps, q_end, &
                            row%energy_error(k), local)
@@ -887,25 +894,28 @@ contains
     !! failing h it records the status and whether the failure is clean (code > 0; the state
     !! unchanged for a step, finite and on the manifold for a run).
     !! Codes: HOLOSYM_INVALID_ARGUMENT (max_order < 1).
-    subroutine run_large_step_study(max_order, cells, status, progress_unit)
+    subroutine run_large_step_study(max_order, cells, status, progress_unit, max_steps)
         integer, intent(in) :: max_order !! largest M (>= 1)
         type(large_step_cell_t), allocatable, intent(out) :: cells(:) !! 2 * max_order cells
         type(holosym_status_t), intent(out), optional :: status !! invalid arguments
         integer, intent(in), optional :: progress_unit !! progress lines here
-        integer :: i
+        integer, intent(in), optional :: max_steps !! most steps of a run (default: none)
+        integer :: i, limit
 
         if (max_order < 1) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "large-step study needs M >= 1; " &
                 // "got " // int_str(max_order))
             return
         end if
+        limit = huge(1)
+        if (present(max_steps)) limit = max_steps
         allocate (cells(2 * max_order))
         !$omp parallel do schedule(dynamic, 1) private(i)
         do i = size(cells), 1, -1
             if (i <= max_order) then
-                call large_step_cell("pendulum", i, cells(i))
+                call large_step_cell("pendulum", i, cells(i), limit)
             else
-                call large_step_cell("linkage", i - max_order, cells(i))
+                call large_step_cell("linkage", i - max_order, cells(i), limit)
             end if
             !$omp critical (extremes_progress)
             call progress(progress_unit, "large steps: " // cells(i)%system // ", M = " // &
@@ -917,10 +927,11 @@ contains
     end subroutine run_large_step_study
 
     !> One cell of the large-step study.
-    subroutine large_step_cell(system, order_m, cell)
+    subroutine large_step_cell(system, order_m, cell, max_steps)
         character(len=*), intent(in) :: system
         integer, intent(in) :: order_m
         type(large_step_cell_t), intent(out) :: cell
+        integer, intent(in) :: max_steps !! most steps of a run
         class(constrained_hamiltonian), allocatable :: sys
         real(wp), allocatable :: q0(:), p0(:)
         type(holosym_status_t) :: fail_status
@@ -941,18 +952,19 @@ contains
             return
         end if
         call search_largest_step(sys, q0, p0, order_m, .false., cell%h_step, cell%h_step_fail, &
-                                 fail_status, steps_done, clean, capped)
+                                 fail_status, steps_done, clean, capped, max_steps)
         cell%step_fail_code = fail_status%code
         cell%step_fail_message = fail_status%message
         cell%step_fail_clean = clean
         cell%capped = capped
         call search_largest_step(sys, q0, p0, order_m, .true., cell%h_run, cell%h_run_fail, &
-                                 fail_status, cell%run_fail_steps, cell%run_fail_clean, capped)
+                                 fail_status, cell%run_fail_steps, cell%run_fail_clean, capped, &
+                                 max_steps)
         cell%run_fail_code = fail_status%code
         cell%capped = cell%capped .or. capped
         if (cell%h_run > 0) then
             call large_step_trial(sys, q0, p0, order_m, .true., cell%h_run, fail_status, &
-                                  steps_done, clean, energy_error)
+                                  steps_done, clean, energy_error, max_steps)
             cell%run_energy_error = energy_error
         end if
         cell%seconds = seconds_since(start)
@@ -961,7 +973,7 @@ contains
     !> Largest converging h (0 if none down to the floor) and the failing h just above it,
     !! with the failure's status, steps done and cleanliness.
     subroutine search_largest_step(sys, q0, p0, order_m, run, h_good, h_bad, bad_status, &
-                                   bad_steps, bad_clean, hit_cap)
+                                   bad_steps, bad_clean, hit_cap, max_steps)
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q0(:), p0(:)
         integer, intent(in) :: order_m
@@ -970,6 +982,7 @@ contains
         type(holosym_status_t), intent(out) :: bad_status
         integer, intent(out) :: bad_steps
         logical, intent(out) :: bad_clean, hit_cap
+        integer, intent(in) :: max_steps !! most steps of a run
         type(holosym_status_t) :: local
         real(wp) :: h, energy
         integer :: k, done
@@ -982,7 +995,8 @@ contains
         bad_steps = 0
         bad_status%message = ""
         h = search_start
-        call large_step_trial(sys, q0, p0, order_m, run, h, local, done, failure_clean, energy)
+        call large_step_trial(sys, q0, p0, order_m, run, h, local, done, failure_clean, energy, &
+                              max_steps)
         if (local%ok()) then
             h_good = h
             do
@@ -992,7 +1006,7 @@ contains
                 end if
                 h = 2 * h_good
                 call large_step_trial(sys, q0, p0, order_m, run, h, local, done, &
-                                      failure_clean, energy)
+                                      failure_clean, energy, max_steps)
                 if (.not. local%ok()) exit
                 h_good = h
             end do
@@ -1009,14 +1023,14 @@ contains
                 h = h_bad / 2
                 if (h < search_floor) return
                 call large_step_trial(sys, q0, p0, order_m, run, h, local, done, &
-                                      failure_clean, energy)
+                                      failure_clean, energy, max_steps)
             end do
             h_good = h
         end if
         do k = 1, bisection_steps
             h = sqrt(h_good * h_bad)
             call large_step_trial(sys, q0, p0, order_m, run, h, local, done, failure_clean, &
-                                  energy)
+                                  energy, max_steps)
             if (local%ok()) then
                 h_good = h
             else
@@ -1030,7 +1044,7 @@ contains
 
     !> One first step (run = .false.) or one run over T = 10 at step h, from (q0, p0).
     subroutine large_step_trial(sys, q0, p0, order_m, run, h, local, done, clean_failure, &
-                                energy)
+                                energy, max_steps)
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q0(:), p0(:)
         integer, intent(in) :: order_m
@@ -1040,6 +1054,7 @@ contains
         integer, intent(out) :: done
         logical, intent(out) :: clean_failure
         real(wp), intent(out) :: energy
+        integer, intent(in) :: max_steps !! most steps of a run
         type(constrained_integrator) :: integrator
         type(run_monitor) :: monitor
         real(wp) :: q(size(q0)), p(size(p0)), position, velocity, scaled_q, scaled_p
@@ -1052,7 +1067,7 @@ contains
         call integrator%init(sys, order_m, order_m - 1, order_m + 1, local)
         if (.not. local%ok()) return
         if (run) then
-            steps = max(1, nint(large_run_span / h))
+            steps = min(max(1, nint(large_run_span / h)), max_steps)
             call monitor_start(monitor, sys, q, p, steps, growth_block_factor, .false., steps)
             call integrator%integrate(sys, q, p, h, steps, monitor, done, local)
             energy = monitor%energy_max
@@ -1076,7 +1091,7 @@ contains
     !! spring frequency of a track): a run over `periods` spring periods.
     !! Codes: HOLOSYM_INVALID_ARGUMENT (empty lists, k <= 0, omega h <= 0, periods <= 0).
     subroutine run_stiff_study(stiffnesses, orders, omega_h, periods, cells, status, &
-                               progress_unit)
+                               progress_unit, max_steps)
         real(wp), intent(in) :: stiffnesses(:) !! k values (> 0)
         integer, intent(in) :: orders(:)       !! M values (>= 1)
         real(wp), intent(in) :: omega_h(:)     !! omega h values (> 0)
@@ -1084,7 +1099,8 @@ contains
         type(stiff_cell_t), allocatable, intent(out) :: cells(:) !! k, then M, then omega h
         type(holosym_status_t), intent(out), optional :: status !! invalid arguments
         integer, intent(in), optional :: progress_unit !! progress lines here
-        integer :: i, a, b, c
+        integer, intent(in), optional :: max_steps !! most steps of a run (default: none)
+        integer :: i, a, b, c, limit
 
         if (size(stiffnesses) < 1 .or. size(orders) < 1 .or. size(omega_h) < 1 .or. &
             .not. all(stiffnesses > 0) .or. any(orders < 1) .or. .not. all(omega_h > 0) .or. &
@@ -1093,6 +1109,8 @@ contains
                 "M >= 1, omega h > 0 and periods > 0; got periods = " // real_str(periods))
             return
         end if
+        limit = huge(1)
+        if (present(max_steps)) limit = max_steps
         allocate (cells(size(stiffnesses) * size(orders) * size(omega_h)))
         i = 0
         do a = 1, size(stiffnesses)
@@ -1109,7 +1127,7 @@ contains
         end do
         !$omp parallel do schedule(dynamic, 1) private(i)
         do i = size(cells), 1, -1
-            call stiff_cell(periods, cells(i))
+            call stiff_cell(periods, cells(i), limit)
             !$omp critical (extremes_progress)
             call progress(progress_unit, "stiff: k = " // real_str(cells(i)%stiffness) // &
                 ", M = " // int_str(cells(i)%order_m) // ", omega h = " // &
@@ -1121,9 +1139,10 @@ contains
     end subroutine run_stiff_study
 
     !> One run of the stiff study.
-    subroutine stiff_cell(periods, cell)
+    subroutine stiff_cell(periods, cell, max_steps)
         real(wp), intent(in) :: periods
         type(stiff_cell_t), intent(inout) :: cell
+        integer, intent(in) :: max_steps
         type(spring_linkage), target :: sys
         type(constrained_integrator) :: integrator
         type(run_monitor) :: monitor
@@ -1133,7 +1152,7 @@ contains
         call sys%initial_state(q, p)
         omega = sqrt(cell%stiffness / sys%track_mass)
         cell%h = cell%omega_h / omega
-        cell%steps = max(1, nint(periods * 2 * pi() / cell%omega_h))
+        cell%steps = min(max(1, nint(periods * 2 * pi() / cell%omega_h)), max_steps)
         call monitor_start(monitor, sys, q, p, cell%steps, growth_block_factor, .false., &
                            cell%steps)
         call integrator%init(sys, cell%order_m, cell%order_n, cell%gauss_points, local)

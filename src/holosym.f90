@@ -30,7 +30,9 @@
 !!   [[newton_workspace_t]], `LINEAR_SOLVER_NATIVE`, `LINEAR_SOLVER_MIXED`: Newton's method
 !!   on any square system.
 !! - [[discrete_scheme]], [[scheme_counters_t]], [[unknown_count]]: the general scheme's
-!!   equations of one step and their size for (M, N, G, n, m); `JACOBIAN_ASSEMBLED`,
+!!   equations of one step and their size for (M, N, G, n, m); `max_order_m`,
+!!   `max_order_n`, `max_gauss_points`: the limits of M, N and G (docs/status-codes.md);
+!!   `JACOBIAN_ASSEMBLED`,
 !!   `JACOBIAN_RESIDUAL_DIFFERENCES`, `HESSIANS_USER`, `HESSIANS_DIFFERENCES`: its modes.
 !! - [[project_to_manifold]], [[projection_report_t]],
 !!   `projection_max_iterations_default`: moves a nearby state onto the manifold.
@@ -65,8 +67,9 @@
 !!   `HOLOSYM_OFF_MANIFOLD`, `HOLOSYM_USER_ABORT`, `HOLOSYM_NOT_INITIALIZED`,
 !!   `HOLOSYM_INVALID_ARGUMENT`, `HOLOSYM_SINGULAR_MATRIX`, `HOLOSYM_NEWTON_NOT_CONVERGED`,
 !!   `HOLOSYM_NEWTON_DIVERGED`, `HOLOSYM_NONFINITE_VALUE`,
-!!   `HOLOSYM_RANK_DEFICIENT_CONSTRAINTS`: the status codes (0 success, negative invalid
-!!   input, positive numerical failure; see [[holosym_status]]).
+!!   `HOLOSYM_RANK_DEFICIENT_CONSTRAINTS`, `HOLOSYM_STEP_TOO_LARGE`,
+!!   `HOLOSYM_STEP_TOO_SMALL`: the status codes (0 success, negative invalid input,
+!!   positive numerical failure; see [[holosym_status]] and docs/status-codes.md).
 module holosym
     use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_release, only: holosym_version
@@ -75,7 +78,8 @@ module holosym
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
-        HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
+        HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, &
+        HOLOSYM_STEP_TOO_SMALL
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_derivatives, lagrange_matrices
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
@@ -95,7 +99,8 @@ module holosym
     use holosym_newton, only: nonlinear_system, newton_solve, newton_settings_t, &
         newton_report_t, newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
     use holosym_scheme, only: discrete_scheme, scheme_counters_t, unknown_count, &
-        JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
+        max_order_m, max_order_n, max_gauss_points, JACOBIAN_ASSEMBLED, &
+        JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer, &
         integrator_stats_t, step_dense_output
     use holosym_observers, only: trajectory_writer, energy_monitor, trajectory_header
@@ -121,7 +126,8 @@ module holosym
         HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, &
         HOLOSYM_OFF_MANIFOLD, HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, &
-        HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
+        HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
+        HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
     ! Basis: quadrature on [0, 1] and Lagrange polynomials.
     public :: gauss_legendre, gauss_lobatto
     public :: lagrange_values, lagrange_derivatives, lagrange_matrices
@@ -145,6 +151,8 @@ module holosym
     ! (`discrete_scheme%jacobian_mode`, `%hessian_mode`; the integrator sets them from its
     ! `jacobian` and `hessians` settings).
     public :: discrete_scheme, scheme_counters_t, unknown_count
+    ! Limits of (M, N, G) (HOLOSYM_INVALID_ORDER beyond them; docs/status-codes.md).
+    public :: max_order_m, max_order_n, max_gauss_points
     public :: JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, &
         HESSIANS_DIFFERENCES
     ! The integrator, its per-step diagnostics, observer (with the dense output of the step

@@ -223,11 +223,12 @@ contains
         call run_holosym_args(words, result)
     end subroutine run_holosym_line
 
-    !> Up to eight words as an argument list for `run_holosym` (any lengths; a word's
+    !> Up to twelve words as an argument list for `run_holosym` (any lengths; a word's
     !! trailing blanks are not kept).
-    function words(w1, w2, w3, w4, w5, w6, w7, w8) result(list)
+    function words(w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11, w12) result(list)
         character(len=*), intent(in) :: w1                       !! first word
         character(len=*), intent(in), optional :: w2, w3, w4, w5, w6, w7, w8 !! more words
+        character(len=*), intent(in), optional :: w9, w10, w11, w12 !! more words
         character(len=:), allocatable :: list(:)
         integer :: length, count
         length = len(w1)
@@ -239,6 +240,10 @@ contains
         call measure(w6)
         call measure(w7)
         call measure(w8)
+        call measure(w9)
+        call measure(w10)
+        call measure(w11)
+        call measure(w12)
         allocate (character(len=length) :: list(count))
         list(1) = w1
         count = 1
@@ -249,6 +254,10 @@ contains
         call add(w6)
         call add(w7)
         call add(w8)
+        call add(w9)
+        call add(w10)
+        call add(w11)
+        call add(w12)
     contains
         subroutine measure(word)
             character(len=*), intent(in), optional :: word

@@ -8,7 +8,7 @@ module holosym_testing
     private
 
     public :: test_error_t, test_case_t, test_interface, new_test, run_suite
-    public :: check, check_close, check_status_code, skip, split_field
+    public :: check, check_close, check_status_code, skip, split_field, overflow_traps
 
     !> A failed assertion (or a skipped test): its message.
     type :: test_error_t
@@ -89,6 +89,14 @@ contains
         call check_logical(error, actual == expected, message // ": status " // int_str(actual) &
             // ", expected " // int_str(expected))
     end subroutine check_status_code
+
+    !> True in a build that traps floating-point overflow (-ffpe-trap=overflow, `make
+    !! test-trap`): a test, or the part of one, that computes an overflow on purpose cannot
+    !! run there (docs/status-codes.md lists them).
+    logical function overflow_traps()
+        use, intrinsic :: ieee_exceptions, only: ieee_get_halting_mode, ieee_overflow
+        call ieee_get_halting_mode(ieee_overflow, overflow_traps)
+    end function overflow_traps
 
     !> Run the tests of a suite whose "suite/name" contains `filter` (all when empty);
     !! print a line per test and add to the counters.

@@ -5,7 +5,6 @@
 !! measured, `--summarize` reproducing the summary, an empty directory an error).
 module test_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
-    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp, wp_is_double
     use holosym_status, only: int_str, real_str, HOLOSYM_SUCCESS, HOLOSYM_NEWTON_DIVERGED
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
@@ -377,6 +376,63 @@ contains
             "pendulum,variant-12,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
             "1.25E-4,400,500,600,70,80,0,0,0,0"], "unknown option set", &
             [character(len=24) :: "line 2", "variant-12"])
+        ! Values out of their ranges: NaN, Inf, beyond the exponent range, negative seconds
+        ! or step counts, a zero step, an unknown status code.
+        call expect_failure([character(len=1000) :: csv_header, good_row, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,NaN,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "NaN error", &
+            [character(len=24) :: "line 3", "field error", "NaN"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,Inf,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "Inf h", [character(len=24) :: "line 2", "field h"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E5000,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "error 1e5000", &
+            [character(len=24) :: "line 2", "field error", "1.0E5000"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,-1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "negative seconds", &
+            [character(len=24) :: "line 2", "field seconds"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,-80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "negative steps", &
+            [character(len=24) :: "line 2", "field steps"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,0,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "zero h", [character(len=24) :: "line 2", "field h"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,-400,500,600,70,80,0,0,0,0"], "negative iterations", &
+            [character(len=24) :: "line 2", "newton_iterations"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,99,0,0,0"], "unknown status", &
+            [character(len=24) :: "line 2", "field status", "99"])
+        ! The fields of heyoka's runs: the tolerance and the compile time.
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,heyoka,real128,0,0,0,20,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,0,0,0,0,0,0,0,NaN,0.5"], "NaN tolerance", &
+            [character(len=24) :: "line 2", "field tolerance", "NaN"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,heyoka,real128,0,0,0,20,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,0,0,0,0,0,0,0,2,0.5"], "tolerance 2", &
+            [character(len=24) :: "line 2", "field tolerance", "[0, 1)"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,heyoka,real128,0,0,0,20,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,0,0,0,0,0,0,0,1.0E-20,-0.5"], "negative compile seconds", &
+            [character(len=24) :: "line 2", "field compile_seconds"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,heyoka,real128,0,0,0,20,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,0,0,0,0,0,0,0,1.0E-20,1e13"], "compile seconds 1e13", &
+            [character(len=24) :: "line 2", "field compile_seconds", "1e12"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real256,2,1,3,4,1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2," // &
+            "1.25E-4,400,500,600,70,80,0,0,0,0"], "unknown precision", &
+            [character(len=24) :: "line 2", "precision", "real256"])
+        call expect_failure([character(len=1000) :: csv_header, &
+            "pendulum,holosym,real128,2,1,3,4,1.25E-1,80,1.0E-9" // achar(0) // ",1.0E-10," // &
+            "1.0E-33,1.0E-2,1.25E-4,400,500,600,70,80,0,0,0,0"], "a NUL byte", &
+            [character(len=24) :: "line 2", "not text"])
 
         ! The well-formed file; bench64.csv, steps.csv and steps64.csv are missing and optional.
         call write_lines(path, [character(len=1000) :: csv_header, good_row])
@@ -384,8 +440,46 @@ contains
         call check(error, result%exit_code == 0 .and. size(result%out) > 0, &
             "the well-formed file is summarized")
         call check(error, file_exists(dir // "/summary.md"), "summary.md written")
+        if (allocated(error)) return
+
+        ! The scaling and long-run files of the same directory are read as strictly.
+        call write_lines(dir // "/scaling.csv", [character(len=100) :: &
+            "precision,path,links,n,m,steps,seconds_per_step,max_rss_kb,status", &
+            "real128,reduced,4,8,4,64,NaN,5000,0"])
+        call summarize(error, dir, result)
+        call check(error, result%exit_code == exit_failure .and. any_line(result, &
+            "scaling.csv: line 2: field seconds_per_step is not a finite number: 'NaN'"), &
+            "NaN seconds in scaling.csv: exit " // int_str(result%exit_code))
+        call write_lines(dir // "/scaling.csv", [character(len=100) :: &
+            "precision,path,links,n,m,steps,seconds_per_step,max_rss_kb,status", &
+            "real128,reduced,4,8,4,64,1.0E-3,5000,0"])
+        call write_lines(dir // "/long.csv", [character(len=160) :: &
+            "system,method,precision,span,config,tolerance,steps,error,max_phi,max_hidden," &
+            // "energy_error,seconds,compile_seconds,status", "planar,holosym,real128,20," // &
+            "(6 5 7) h=0.5,0,-40,1.0E-21,1.0E-33,1.0E-33,1.0E-30,0.1,0,0"])
+        call summarize(error, dir, result)
+        call check(error, result%exit_code == exit_failure .and. any_line(result, &
+            "long.csv: line 2: field steps is not >= 0: '-40'"), &
+            "negative steps in long.csv: exit " // int_str(result%exit_code))
+        call write_lines(dir // "/long.csv", [character(len=160) :: &
+            "system,method,precision,span,config,tolerance,steps,error,max_phi,max_hidden," &
+            // "energy_error,seconds,compile_seconds,status", "planar,holosym,real128,20," // &
+            "(6 5 7) h=0.5,0,40,1.0E-21,1.0E-33,1.0E-33,1.0E-30,0.1,0,0"])
+        call summarize(error, dir, result)
+        call check(error, result%exit_code == 0, "well-formed scaling.csv and long.csv: " // &
+            "exit " // int_str(result%exit_code))
 
     contains
+
+        logical function any_line(outcome, text)
+            type(command_result_t), intent(in) :: outcome
+            character(len=*), intent(in) :: text
+            integer :: k
+            any_line = .false.
+            do k = 1, size(outcome%err)
+                if (index(outcome%err(k)%text, text) > 0) any_line = .true.
+            end do
+        end function any_line
 
         subroutine expect_failure(lines, what, fragments)
             character(len=*), intent(in) :: lines(:)
@@ -424,11 +518,9 @@ contains
         type(row_t) :: taylor
         type(command_result_t) :: result
         character(len=:), allocatable :: line, dir
-        real(wp) :: nan
         real(real64), parameter :: best_seconds = 4.0e-3_real64, rattle_seconds = 4.0e-2_real64
 
         dir = fresh_dir("bench_cheapest")
-        nan = ieee_value(nan, ieee_quiet_nan)
         rows = [ &
             make_row("pendulum", "holosym", "real128", 5, 0.5_wp, 5.0e-11_wp, 1.0e-2_real64, 0), &
             make_row("pendulum", "holosym", "real128", 6, 1.0_wp, 1.0e-12_wp, best_seconds, 0), &
@@ -436,7 +528,7 @@ contains
                      HOLOSYM_NEWTON_DIVERGED), &
             make_row("pendulum", "holosym-plain", "real128", 7, 1.0_wp, 1.0e-12_wp, &
                      5.0e-4_real64, 0), &
-            make_row("pendulum", "holosym", "real128", 8, 1.0_wp, nan, 1.0e-4_real64, 0), &
+            make_row("pendulum", "holosym", "real128", 8, 1.0_wp, 1.0e-3_wp, 1.0e-4_real64, 0), &
             make_row("pendulum", "holosym", "real128", 3, 1.0_wp, 2.0e-10_wp, 2.0e-4_real64, 0), &
             make_row("pendulum", "rattle-suzuki", "real128", 0, 0.25_wp, 1.0e-11_wp, &
                      rattle_seconds, 0), &

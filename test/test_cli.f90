@@ -369,22 +369,27 @@ contains
         call simulate(error, "--M +12 --steps 0", result)
         call check_start(error, result, expected_start("pendulum", 3, 1, 12, 11, 13, 0.0625_wp, &
                          0), "--M +12")
-        call expect_rejection(error, "--N -3", [character(len=16) :: "--N", "must be >= 0", &
+        call expect_rejection(error, "--N -3", [character(len=16) :: "--N", "must be in 0..30", &
                               "'-3'"])
     end subroutine test_numbers_accepted
 
     subroutine test_numbers_rejected(error)
         type(test_error_t), allocatable, intent(out) :: error
         character(len=*), parameter :: bad_reals(*) = [character(len=8) :: &
-            "", ".", "1e", "1.2.3", "inf", "nan", "1/0", "1 2", "1,2", "e5", "1e+", "1/"]
+            ".", "1e", "1.2.3", "inf", "nan", "1 2", "1,2", "e5", "1e+", "1/"]
         character(len=*), parameter :: bad_integers(*) = [character(len=24) :: &
-            "", "+", "1e3", "1.0", "x1", "1 2", "99999999999999999999"]
+            "+", "1e3", "1.0", "x1", "1 2", "99999999999999999999"]
         integer :: i
         do i = 1, size(bad_reals)
             call expect_rejection_args(error, [character(len=8) :: "--h", bad_reals(i)], &
                 [character(len=20) :: "option --h", "expects a number", "'" // &
                 trim(bad_reals(i)) // "'"])
         end do
+        ! An empty value is no value; a zero denominator is named.
+        call expect_rejection_args(error, [character(len=8) :: "--h", ""], &
+            [character(len=20) :: "option --h", "needs a value"])
+        call expect_rejection_args(error, [character(len=8) :: "--h", "1/0"], &
+            [character(len=20) :: "option --h", "division by zero", "'1/0'"])
         ! "--1" looks like an option: --h then has no value.
         call expect_rejection(error, "--h --1", [character(len=16) :: "--h", "needs a value"])
         do i = 1, size(bad_integers)

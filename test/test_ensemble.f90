@@ -6,6 +6,7 @@
 !! overwritten).
 module test_ensemble
     use, intrinsic :: iso_fortran_env, only: int64
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym, only: wp, spherical_pendulum, spring_linkage, constrained_integrator, &
         holosym_status_t, status_code_name, ensemble_settings_t, ensemble_states_t, &
         ensemble_result_t, ensemble_sink, run_ensemble, perturbed_states, openmp_farm, &
@@ -46,6 +47,7 @@ contains
             new_test("cli_threads_1_2_4_identical_files", cli_threads_identical), &
             new_test("cli_states_file_with_header_h_and_T", cli_states_file), &
             new_test("cli_samples_one_file_per_trajectory", cli_samples), &
+            new_test("cli_samples_identical_on_1_and_2_threads", cli_samples_threads), &
             new_test("cli_kill_and_resume_equals_uninterrupted", cli_kill_and_resume), &
             new_test("cli_bad_states_files_refused", cli_bad_states), &
             new_test("cli_outputs_never_overwritten", cli_outputs_kept), &
@@ -221,8 +223,7 @@ contains
         call run_ensemble(sys, bad, settings, results, status)
         call expect(HOLOSYM_INVALID_ARGUMENT, "duplicate id 2", "duplicate ids")
         bad = states
-        nan = 0
-        nan = nan / nan
+        nan = ieee_value(nan, ieee_quiet_nan)
         bad%p(2, 4) = nan
         call run_ensemble(sys, bad, settings, results, status)
         call expect(HOLOSYM_INVALID_ARGUMENT, "id 4", "NaN")
@@ -421,6 +422,36 @@ contains
         call check(error, size(result%out) == 3, "three files, no temporaries: " // &
             int_str(size(result%out)))
     end subroutine cli_samples
+
+    !> The sample files of 24 trajectories written on 2 threads, three times, equal those
+    !! written on 1 thread byte for byte (the workers write them while others compute).
+    subroutine cli_samples_threads(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        character(len=:), allocatable :: reference, name
+        integer :: run
+        character(len=*), parameter :: common = "--system linkage --perturb 24 " // &
+            "--scale 0.01 --M 3 --T 3 --every 8 --quiet --threads "
+        do run = 0, 3
+            name = "ens_samples_t" // int_str(run)
+            call ensemble(common // int_str(min(run + 1, 2)) // " --output " // &
+                scratch_path(name // ".csv") // " --samples " // scratch_path(name), result)
+            call check(error, result%exit_code == 0, "run " // int_str(run) // ": " // &
+                errors_of(result))
+            if (allocated(error)) return
+            call run_shell("cd " // shell_quote(scratch_path(name)) // " && ls | sort -n | " // &
+                "xargs cat | sha256sum", result)
+            call check(error, result%exit_code == 0 .and. size(result%out) == 1, "digest")
+            if (allocated(error)) return
+            if (run == 0) then
+                reference = result%out(1)%text
+            else
+                call check(error, result%out(1)%text == reference, "2 threads, run " // &
+                    int_str(run) // ": sample files differ from those on 1 thread")
+                if (allocated(error)) return
+            end if
+        end do
+    end subroutine cli_samples_threads
 
     !> Kill a run (SIGKILL) after a few rows: every row kept is a row of the uninterrupted
     !! run; --resume computes the rest and leaves the same file, byte for byte.

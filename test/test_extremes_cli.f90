@@ -83,8 +83,8 @@ contains
         call reject("--steps 0", [character(len=16) :: "--steps", "'0'"])
         call reject("--steps -5", [character(len=16) :: "--steps", "'-5'"])
         call reject("--steps 1e3", [character(len=16) :: "--steps", "'1e3'"])
-        call reject("--steps 99999999999999999999", [character(len=16) :: "--steps", &
-                    "out of range"])
+        call reject("--steps 99999999999999999999", [character(len=24) :: "--steps", &
+                    "must be in 1..2147483647", "'99999999999999999999'"])
         call reject("--steps", [character(len=16) :: "--steps", "a value"])
         call reject("--max-order 16", [character(len=16) :: "--max-order", "'16'"])
         call reject("--max-order 0", [character(len=16) :: "--max-order", "'0'"])

@@ -27,6 +27,8 @@ program holosym_tests
     use test_observers, only: observers_tests
     use test_figures, only: figures_tests
     use test_capi, only: capi_tests
+    use test_hardening, only: hardening_tests
+    use test_cli_hardening, only: cli_hardening_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed, skipped
@@ -63,6 +65,8 @@ program holosym_tests
     call run_suite("observers", observers_tests(), filter, passed, failed, skipped)
     call run_suite("figures", figures_tests(), filter, passed, failed, skipped)
     call run_suite("capi", capi_tests(), filter, passed, failed, skipped)
+    call run_suite("hardening", hardening_tests(), filter, passed, failed, skipped)
+    call run_suite("cli_hardening", cli_hardening_tests(), filter, passed, failed, skipped)
     if (passed + failed + skipped == 0) then
         write (error_unit, '(a)') "holosym_tests: no test matches '" // trim(filter) // &
             "' (a test is selected when its suite/name contains the filter, e.g. scheme/)"

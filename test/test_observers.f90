@@ -4,6 +4,7 @@
 !! just taken inside an observer, `state_from_velocities`, and each of them fed bad input
 !! (status and message, the caller's data unchanged).
 module test_observers
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     use holosym, only: wp, holosym_status_t, constrained_hamiltonian, constrained_integrator, &
         step_observer, step_info_t, step_dense_output, trajectory_writer, energy_monitor, &
         trajectory_header, state_from_velocities, projection_report_t, manifold_residuals, &
@@ -278,8 +279,7 @@ contains
         call monitor%start(sys, q, p(1:2), status)
         call check_status_code(error, status%code, HOLOSYM_SIZE_MISMATCH, "p of size 2")
         nan_q = q
-        nan_q(2) = huge(1.0_wp)
-        nan_q(2) = nan_q(2) * 2
+        nan_q(2) = ieee_value(1.0_wp, ieee_positive_inf)
         call monitor%start(sys, nan_q, p, status)
         call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "q with Inf")
         call check(error, monitor%steps == fresh%steps .and. &
@@ -388,8 +388,7 @@ contains
         p_saved = p
         call state_from_velocities(sys, q, v(1:2), p, status)
         call check_status_code(error, status%code, HOLOSYM_SIZE_MISMATCH, "velocity of size 2")
-        v(3) = huge(1.0_wp)
-        v(3) = v(3) * 2
+        v(3) = ieee_value(1.0_wp, ieee_positive_inf)
         call state_from_velocities(sys, q, v, p, status)
         call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "Inf velocity")
         call check(error, index(status%message, "velocity") > 0, "message: " // status%message)

@@ -22,10 +22,13 @@ Usage:
                   [--budget S] [--quick]
   heyoka_bench.py long --system S --span T --reference FILE --out CSV --tolerances LIST
 Rows are appended to CSV in the format of holosym's bench.csv (method 'heyoka'; h is the
-mean step T/steps, order the Taylor order); `long` writes the columns of long.csv.
+mean step T/steps, order the Taylor order); `long` writes the columns of long.csv. A run
+whose error or residuals are not finite (a blow-up) is reported on stderr and gets no
+row: holosym reads these files strictly and refuses NaN and Inf.
 """
 import argparse
 import csv
+import math
 import os
 import statistics
 import sys
@@ -190,6 +193,11 @@ def read_reference(path, system, fp):
     return vector("q0"), vector("p0"), vector("q"), vector("p")
 
 
+def finite(*values):
+    """Whether every value (float or real128) is finite."""
+    return all(math.isfinite(float(x)) for x in values)
+
+
 def text(x):
     """A number as holosym's CSV reader takes it (36 digits in real128, 17 in double)."""
     if isinstance(x, hy.real128):
@@ -282,6 +290,10 @@ def sweep(args):
             error = runner.error(state, q_ref, p_ref)
             max_phi, max_hidden, energy_error = runner.diagnose(ta, args.grid)
             status = 0 if "time_limit" in outcome else 1
+            if not finite(error, max_phi, max_hidden, energy_error):
+                print("heyoka: %s %s tol %s: a non-finite error or residual, no row"
+                      % (args.system, args.precision, tolerance), file=sys.stderr)
+                continue
             row = [args.system, "heyoka", args.precision, 0, 0, 0, ta.order,
                    text(runner.span / steps), steps, text(error), text(energy_error),
                    text(max(max_phi, max_hidden)), repr(seconds), repr(seconds / steps),
@@ -319,6 +331,10 @@ def long_runs(args):
             error = runner.error(state, q_ref, p_ref)
             max_phi, max_hidden, energy_error = runner.diagnose(ta, args.grid)
             status = 0 if "time_limit" in outcome else 1
+            if not finite(error, max_phi, max_hidden, energy_error):
+                print("heyoka long: %s T = %s tol %s: a non-finite error or residual, no row"
+                      % (args.system, args.span, tolerance), file=sys.stderr)
+                continue
             row = [args.system, "heyoka", "real128", args.span, "order %d" % ta.order,
                    text(fp(tolerance)), steps, text(error), text(max_phi), text(max_hidden),
                    text(energy_error), repr(seconds), repr(compile_seconds), status]

@@ -32,7 +32,7 @@ module holosym_rattle
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_NOT_INITIALIZED, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_STEP_SIZE, &
         HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, &
-        HOLOSYM_NONFINITE_VALUE
+        HOLOSYM_NONFINITE_VALUE, HOLOSYM_INVALID_DIMENSION
     use holosym_problem, only: constrained_hamiltonian
     use holosym_linalg, only: lu_factor, lu_solve
     use holosym_compositions, only: composition_coefficients, composition_max_order
@@ -101,7 +101,8 @@ module holosym_rattle
 contains
 
     !> Set up for `sys` (sizes n, m), composition order and family.
-    !! Codes: those of `composition_coefficients`.
+    !! Codes: those of `composition_coefficients`, HOLOSYM_INVALID_DIMENSION (n < 1, m < 0,
+    !! m >= n, or a dense workspace beyond the default integer).
     subroutine rattle_init(self, sys, order, family, status)
         class(rattle_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in) :: sys !! the system (n, m are read)
@@ -117,6 +118,19 @@ contains
         end if
         n = sys%n
         m = sys%m
+        if (n < 1 .or. m < 0 .or. m >= n) then
+            self%ready = .false.
+            call set_status(status, HOLOSYM_INVALID_DIMENSION, "need n >= 1 and 0 <= m < n; " &
+                // "got n = " // int_str(n) // ", m = " // int_str(m))
+            return
+        end if
+        ! The dense workspace: (2n + m)^2 and n^2 m entries.
+        if ((2 * int(n, int64) + m)**2 > huge(0) .or. int(n, int64)**2 * max(m, 1) > huge(0)) then
+            self%ready = .false.
+            call set_status(status, HOLOSYM_INVALID_DIMENSION, "n = " // int_str(n) // &
+                ", m = " // int_str(m) // " is too large for the dense workspace of RATTLE")
+            return
+        end if
         self%order = order
         self%n = n
         self%m = m
@@ -150,6 +164,7 @@ contains
 
     !> One composed step of size h; q, p unchanged on failure.
     !! Codes: HOLOSYM_NOT_INITIALIZED, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_STEP_SIZE,
+    !! HOLOSYM_INVALID_ARGUMENT (tolerance outside (0, 1) or max_iterations < 1),
     !! HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NONFINITE_VALUE.
     subroutine rattle_step(self, sys, q, p, h, status)
         class(rattle_integrator), intent(inout) :: self
@@ -183,13 +198,29 @@ contains
             call set_status(status, HOLOSYM_SIZE_MISMATCH, "q, p and the system must have " // &
                 "the sizes given to init (n = " // int_str(self%n) // ")")
             return
-        else if (.not. (is_finite(h) .and. h > 0)) then
+        else if (.not. is_finite(h)) then
+            call set_status(status, HOLOSYM_INVALID_STEP_SIZE, "step size must be positive " // &
+                "and finite; got h = " // real_str(h))
+            return
+        else if (h <= 0) then
             call set_status(status, HOLOSYM_INVALID_STEP_SIZE, "step size must be positive " // &
                 "and finite; got h = " // real_str(h))
             return
         else if (steps < 0) then
             call set_status(status, HOLOSYM_INVALID_STEP_COUNT, "step count must be >= 0; " // &
                 "got " // int_str(steps))
+            return
+        else if (self%max_iterations < 1) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "max_iterations must be >= 1; " &
+                // "got " // int_str(self%max_iterations))
+            return
+        else if (.not. is_finite(self%tolerance)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "tolerance must be in (0, 1); " &
+                // "got " // real_str(self%tolerance))
+            return
+        else if (self%tolerance <= 0 .or. self%tolerance >= 1) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "tolerance must be in (0, 1); " &
+                // "got " // real_str(self%tolerance))
             return
         end if
         local%code = HOLOSYM_SUCCESS

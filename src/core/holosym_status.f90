@@ -4,19 +4,28 @@
 !! Convention: 0 is success, a negative code is invalid input (or a user abort),
 !! a positive code is a numerical failure. Every public entry point takes an optional
 !! `type(holosym_status), intent(out) :: status`; when it is absent and the call fails,
-!! the program stops with the message (`error stop`).
+!! the program stops with the message (`error stop`). docs/status-codes.md lists every
+!! code with where it is returned, and every limit.
 module holosym_status
+    ! The finiteness tests are IEEE classifications, which never raise an exception (an
+    ! ordered comparison with a NaN raises 'invalid', which traps under -ffpe-trap=invalid).
+    ! Used here, at module level, they add no per-call floating-point state handling.
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_is_nan
+    use holosym_kinds, only: wp
     implicit none
     private
 
-    public :: holosym_status_t, set_status, status_code_name, int_str, real_str, is_finite
+    public :: holosym_status_t, set_status, status_code_name, int_str, real_str, is_finite, &
+        is_nan
 
     !> Success.
     integer, parameter, public :: HOLOSYM_SUCCESS = 0
-    !> M < 1, N < 0 or G < 1, or G < N + 1, which gives a singular Newton Jacobian for
+    !> M, N or G outside 1 <= M <= max_order_m, 0 <= N <= max_order_n,
+    !! 1 <= G <= max_gauss_points, or G < N + 1, which gives a singular Newton Jacobian for
     !! every system.
     integer, parameter, public :: HOLOSYM_INVALID_ORDER = -1
-    !> Problem dimensions invalid: n < 1, m < 0 or m >= n.
+    !> Problem dimensions invalid: n < 1, m < 0 or m >= n, or sizes of the step's
+    !! equations that overflow the default integer.
     integer, parameter, public :: HOLOSYM_INVALID_DIMENSION = -2
     !> An array argument does not have the size that n, m or the scheme require.
     integer, parameter, public :: HOLOSYM_SIZE_MISMATCH = -3
@@ -40,8 +49,18 @@ module holosym_status
     integer, parameter, public :: HOLOSYM_NEWTON_DIVERGED = 3
     !> A user procedure (H, its gradients, phi, Phi, ...) returned NaN or Inf.
     integer, parameter, public :: HOLOSYM_NONFINITE_VALUE = 4
-    !> The constraint Jacobian Phi is rank deficient at the state.
+    !> The constraint Jacobian Phi is rank deficient at the state, or becomes so within
+    !! the step (at a displacement node of the failing Newton iterate).
     integer, parameter, public :: HOLOSYM_RANK_DEFICIENT_CONSTRAINTS = 5
+    !> The step is too large for a unique solution: Newton converged to a root that is not
+    !! the continuation of the flow (the step changed the energy by more than 1e-2 relative
+    !! and disagrees with two half steps), or the step's equations overflow or are
+    !! singular at this h only (they are not at a smaller h). Reduce h.
+    integer, parameter, public :: HOLOSYM_STEP_TOO_LARGE = 6
+    !> h is below the resolution of the state: the round-off of q, epsilon |q|, divided by
+    !! h exceeds Newton's stagnation level in the momenta, so the step's equations cannot
+    !! be solved; the message gives the limit for the state. Increase h.
+    integer, parameter, public :: HOLOSYM_STEP_TOO_SMALL = 7
 
     !> Outcome of a call: a code (see the HOLOSYM_* constants) and a message.
     type :: holosym_status_t
@@ -97,18 +116,23 @@ contains
         case (HOLOSYM_NEWTON_DIVERGED);            name = "Newton diverged"
         case (HOLOSYM_NONFINITE_VALUE);            name = "non-finite value"
         case (HOLOSYM_RANK_DEFICIENT_CONSTRAINTS); name = "rank-deficient constraint Jacobian"
+        case (HOLOSYM_STEP_TOO_LARGE);             name = "step too large"
+        case (HOLOSYM_STEP_TOO_SMALL);             name = "step below the resolution of the state"
         case default;                              name = "unknown status"
         end select
     end function status_code_name
 
-    !> True when `value` is neither NaN nor infinite.
-    !! (A comparison, not ieee_is_finite: a procedure using the IEEE modules saves and
-    !! restores the floating-point state on every call, which costs more than the test.)
+    !> True when `value` is neither NaN nor infinite (never raises an IEEE exception).
     elemental logical function is_finite(value)
-        use holosym_kinds, only: wp
         real(wp), intent(in) :: value !! value to test
-        is_finite = abs(value) <= huge(value)
+        is_finite = ieee_is_finite(value)
     end function is_finite
+
+    !> True when `value` is a NaN (never raises an IEEE exception).
+    elemental logical function is_nan(value)
+        real(wp), intent(in) :: value !! value to test
+        is_nan = ieee_is_nan(value)
+    end function is_nan
 
     !> Decimal text of an integer, for messages.
     pure function int_str(value) result(text)
@@ -121,7 +145,6 @@ contains
 
     !> Short scientific text of a real (any kind converted to wp), for messages.
     pure function real_str(value) result(text)
-        use holosym_kinds, only: wp
         real(wp), intent(in) :: value !! value to format
         character(len=:), allocatable :: text
         character(len=48) :: buffer

@@ -34,7 +34,12 @@ module holosym_ensemble
 
     public :: ensemble_settings_t, ensemble_states_t, ensemble_result_t, ensemble_sink
     public :: run_ensemble, check_ensemble, ensemble_steps, integrate_member, sorted_order
-    public :: perturbed_states
+    public :: perturbed_states, samples_failure
+
+    !> Start of the message of a trajectory whose samples could not be stored (its code is
+    !! then the sink's): a sink that writes files tells this I/O failure from the
+    !! trajectory's own.
+    character(len=*), parameter :: samples_failure = "storing the samples: "
 
     !> Relative tolerance for "T is a multiple of h" (decimal input is not exact in binary).
     real(wp), parameter :: multiple_tolerance = 64 * epsilon(1.0_wp)
@@ -118,9 +123,10 @@ module holosym_ensemble
         !! the order of completion. Set `halt` to stop (no new trajectory is started).
         procedure(sink_completed_interface), deferred :: completed
         !> The sampled states of a trajectory (`settings%every` > 0), on the worker that
-        !! computed it, before `completed` receives its result; concurrently with other
-        !! trajectories, so it must not change shared state. A failure is recorded as the
-        !! trajectory's status. Default: nothing is stored.
+        !! computed it, before `completed` receives its result; one call at a time, while
+        !! other trajectories are computed, so it must not change state that `completed`
+        !! uses. A failure is recorded as the trajectory's status. Default: nothing is
+        !! stored.
         procedure :: store_samples => ignore_samples
     end type ensemble_sink
 
@@ -192,8 +198,9 @@ contains
 
     !> Number of steps of trajectory k: nint(T/h) with its own or the default h and T.
     !! Fails with HOLOSYM_INVALID_STEP_SIZE (h not positive and finite) or
-    !! HOLOSYM_INVALID_STEP_COUNT (T negative, not finite, or T/h more steps than an integer
-    !! holds).
+    !! HOLOSYM_INVALID_STEP_COUNT (T negative, not finite, T/h more steps than an integer
+    !! holds, decided on the exponents before dividing, or T > 0 with T/h rounding to 0
+    !! steps).
     subroutine ensemble_steps(states, settings, k, h, steps, status)
         type(ensemble_states_t), intent(in) :: states     !! the initial states
         type(ensemble_settings_t), intent(in) :: settings !! the defaults
@@ -212,7 +219,15 @@ contains
                 // "and finite; got h = " // real_str(h))
             return
         end if
-        ratio = span / h
+        ratio = huge(1.0_wp)
+        if (is_finite(span) .and. span >= 0) then
+            ! T/h cannot overflow once its binary exponent fits an integer's bits.
+            if (span == 0) then
+                ratio = 0
+            else if (exponent(span) - exponent(h) <= bit_size(steps)) then
+                ratio = span / h
+            end if
+        end if
         if (.not. (is_finite(span) .and. span >= 0 .and. ratio <= real(huge(steps), wp))) then
             call set_status(status, HOLOSYM_INVALID_STEP_COUNT, "final time must be >= 0 " // &
                 "and T/h at most " // int_str(huge(steps)) // " steps; got T = " // &
@@ -220,6 +235,11 @@ contains
             return
         end if
         steps = nint(ratio)
+        if (steps == 0 .and. span > 0) then
+            call set_status(status, HOLOSYM_INVALID_STEP_COUNT, "T/h rounds to 0 steps; got " &
+                // "T = " // real_str(span) // ", h = " // real_str(h))
+            return
+        end if
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine ensemble_steps
 
@@ -503,10 +523,15 @@ contains
         type(holosym_status_t) :: status
         call integrate_member(self%sys, self%states, self%settings, task, result)
         if (allocated(result%samples) .and. associated(self%sink)) then
+            ! One sink call at a time: gfortran (12) keeps the length of a function result
+            ! of deferred length in a static variable at each call site, so two threads in
+            ! the same text-building code corrupt each other's strings and the heap.
+            !$omp critical (holosym_store_samples)
             call self%sink%store_samples(result, status)
+            !$omp end critical (holosym_store_samples)
             if (.not. status%ok() .and. result%code == HOLOSYM_SUCCESS) then
                 result%code = status%code
-                result%message = "storing the samples: " // status%message
+                result%message = samples_failure // status%message
             end if
         end if
         record = ""

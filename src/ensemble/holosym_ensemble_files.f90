@@ -2,9 +2,9 @@
 !! moment each trajectory completes, a timing log, and sampled states in one file per
 !! trajectory.
 !!
-!! Nothing lost: `ensemble_csv_sink` appends each result row and flushes it, so a killed run
-!! keeps every completed row (a row cut short by the kill is dropped when the run is
-!! resumed). Opening an existing results file for a new run is refused; `resume` keeps its
+!! Nothing lost: `ensemble_csv_sink` appends each result row and closes the file, so a
+!! killed run keeps every completed row (a row cut short by the kill is dropped when the
+!! run is resumed). Opening an existing results file for a new run is refused; `resume` keeps its
 !! complete rows and marks their trajectories to skip. When the run has every row, `finish`
 !! rewrites the file with the rows in ascending id order (to a temporary file, then renamed
 !! over it): the same bytes whatever the order of completion, the number of threads or
@@ -16,6 +16,14 @@
 !! `id,code,steps,steps_done,q1..qn,p1..pn,max_energy_error,max_constraint_residual,`
 !! `max_velocity_residual,newton_iterations,message`, then one row per trajectory; reals
 !! with 36 significant digits (exact in real128), the message in double quotes.
+!!
+!! Nothing written in vain: every file is written through the C library's streams
+!! (`holosym_text_file`; Fortran units report neither a full disk nor a full device in
+!! gfortran 12, and stop the program in LLVM flang), and each write closes its file, so a
+!! write that does not reach the file stops the run with HOLOSYM_INVALID_ARGUMENT. Files
+!! read (states, a results file to resume) must be text: a control byte or a line beyond
+!! `max_line_length` is refused, so that a device such as /dev/zero cannot make the
+!! reader loop.
 module holosym_ensemble_files
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
@@ -23,7 +31,8 @@ module holosym_ensemble_files
     use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_ensemble, only: ensemble_states_t, ensemble_result_t, ensemble_sink, &
-        sorted_order
+        sorted_order, samples_failure
+    use holosym_text_file, only: text_file_t
     implicit none
     private
 
@@ -34,6 +43,8 @@ module holosym_ensemble_files
     character(len=*), parameter :: real_format = '(es44.35e4)'
     !> Longest integer accepted in a CSV field (more digits overflow the default integer).
     integer, parameter :: max_integer_digits = 9
+    !> Longest line of a file read here (1 MiB).
+    integer, parameter :: max_line_length = 1048576
 
     !> One piece of text (a line or a field).
     type :: csv_text_t
@@ -51,10 +62,6 @@ module holosym_ensemble_files
         !> Directory of the sample files `<id>.csv` ("" for none).
         character(len=:), allocatable :: samples_dir
         character(len=:), allocatable, private :: path, timing_path, description
-        integer, private :: unit = 0
-        integer, private :: timing_unit = 0
-        logical, private :: unit_open = .false.
-        logical, private :: timing_open = .false.
         integer, private :: n = 0
         integer, private :: to_do = 0
         integer, private :: done = 0
@@ -64,12 +71,11 @@ module holosym_ensemble_files
         integer(int64), private :: clock_start = 0
         integer(int64), private :: clock_rate = 1
         integer(int64), private :: clock_last = 0
-        integer, private :: io_status = 0
         character(len=:), allocatable, private :: io_message
     contains
         !> Create the results file (refused if it exists) or, to resume, reopen it.
         procedure :: open => sink_open
-        !> Write a completed trajectory's row (and timing), flushed; report progress.
+        !> Write a completed trajectory's row (and timing), checked; report progress.
         procedure :: completed => sink_completed
         !> Write a trajectory's samples to samples_dir/<id>.csv (via a temporary file).
         procedure :: store_samples => sink_store_samples
@@ -360,55 +366,133 @@ contains
         end function count_digits
     end function decimal_field
 
-    !> Every line of a text file, of any length.
+    !> Every line of a text file, up to `max_line_length` characters. A control character
+    !! other than a tab or a carriage return (as devices like /dev/zero give), a longer
+    !! line or a read error gives ios /= 0 and a message naming the line. The bytes are
+    !! read with stream access and checked as they come (a record-oriented read would
+    !! first look for the end of a line that a device never ends): a regular file in
+    !! blocks of its known size, anything else byte by byte.
     subroutine read_text_lines(path, lines, ios, message)
         character(len=*), intent(in) :: path
         type(csv_text_t), allocatable, intent(out) :: lines(:)
         integer, intent(out) :: ios
         character(len=:), allocatable, intent(out) :: message
-        character(len=4096) :: chunk
+        integer, parameter :: block = 65536
+        character(len=block) :: chunk
         character(len=256) :: io_message
         character(len=:), allocatable :: line
-        integer :: unit, got
-        allocate (lines(0))
+        type(csv_text_t), allocatable :: kept(:)
+        integer(int64) :: file_size, done
+        integer :: unit, count, n
+        logical :: exists
+        allocate (lines(0), kept(64))
+        count = 0
         message = ""
-        open (newunit=unit, file=path, status="old", action="read", iostat=ios, &
-              iomsg=io_message)
+        file_size = -1
+        inquire (file=path, exist=exists, size=file_size)
+        open (newunit=unit, file=path, status="old", action="read", access="stream", &
+              form="unformatted", iostat=ios, iomsg=io_message)
         if (ios /= 0) then
             message = trim(io_message)
             return
         end if
+        done = 0
+        line = ""
         do
-            line = ""
-            do
-                read (unit, '(a)', advance="no", iostat=ios, size=got) chunk
-                line = line // chunk(:got)
-                if (ios /= 0) exit
-            end do
-            if (is_iostat_end(ios)) then
-                ! A last line without its end of line (a write cut short) is kept.
-                if (len(line) > 0) lines = [lines, csv_text_t(line)]
-                exit
+            if (file_size > 0) then
+                if (done >= file_size) exit
+                n = int(min(int(block, int64), file_size - done))
+            else
+                n = 1
             end if
-            if (.not. is_iostat_eor(ios)) then
-                message = "read error"
+            read (unit, iostat=ios, iomsg=io_message) chunk(:n)
+            if (is_iostat_end(ios)) exit
+            if (ios /= 0) then
+                message = "line " // int_str(count + 1) // ": " // trim(io_message)
                 close (unit)
                 return
             end if
-            lines = [lines, csv_text_t(line)]
+            done = done + n
+            call take(chunk(:n))
+            if (ios /= 0) then
+                close (unit)
+                return
+            end if
         end do
         ios = 0
         close (unit)
+        ! A last line without its end of line (a write cut short) is kept.
+        if (len(line) > 0) call keep()
+        call move_alloc(kept, lines)
+        lines = lines(:count)
+    contains
+        !> Split bytes into lines, checking each piece; ios = 1 and `message` on a fault.
+        subroutine take(text)
+            character(len=*), intent(in) :: text
+            integer :: first, end_of_line, last
+            first = 1
+            do while (first <= len(text))
+                end_of_line = index(text(first:), new_line("a"))
+                last = len(text)
+                if (end_of_line > 0) last = first + end_of_line - 2
+                if (.not. is_text(text(first:last))) then
+                    message = "line " // int_str(count + 1) // " is not text (a " // &
+                        "control character)"
+                    ios = 1
+                    return
+                end if
+                if (len(line) + last - first + 1 > max_line_length) then
+                    message = "line " // int_str(count + 1) // " is longer than " // &
+                        int_str(max_line_length) // " characters"
+                    ios = 1
+                    return
+                end if
+                line = line // text(first:last)
+                if (end_of_line == 0) exit
+                call keep()
+                line = ""
+                first = last + 2
+            end do
+        end subroutine take
+        subroutine keep()
+            type(csv_text_t), allocatable :: larger(:)
+            integer :: k
+            if (count == size(kept)) then
+                allocate (larger(2 * size(kept)))
+                do k = 1, count
+                    call move_alloc(kept(k)%text, larger(k)%text)
+                end do
+                call move_alloc(larger, kept)
+            end if
+            count = count + 1
+            kept(count)%text = line
+        end subroutine keep
     end subroutine read_text_lines
 
-    !> A real as a CSV field: 36 significant digits, no blanks.
-    function real_text(value) result(text)
-        real(wp), intent(in) :: value
-        character(len=:), allocatable :: text
+    !> No control character but tabs and carriage returns.
+    pure logical function is_text(text)
+        character(len=*), intent(in) :: text
+        integer :: k, code
+        is_text = .true.
+        do k = 1, len(text)
+            code = iachar(text(k:k))
+            if ((code < 32 .and. code /= 9 .and. code /= 13) .or. code == 127) then
+                is_text = .false.
+                return
+            end if
+        end do
+    end function is_text
+
+    !> Append `separator` and a real as a CSV field (36 significant digits, no blanks) to
+    !! `line`.
+    subroutine append_real(line, separator, value)
+        character(len=:), allocatable, intent(inout) :: line !! the text so far
+        character(len=*), intent(in) :: separator            !! put before the field
+        real(wp), intent(in) :: value                        !! the value
         character(len=48) :: buffer
         write (buffer, real_format) value
-        text = trim(adjustl(buffer))
-    end function real_text
+        line = line // separator // trim(adjustl(buffer))
+    end subroutine append_real
 
     !> The header of the results file for n coordinates.
     pure function result_header(n) result(header)
@@ -435,16 +519,16 @@ contains
         row = int_str(result%id) // "," // int_str(result%code) // "," // &
             int_str(result%steps) // "," // int_str(result%steps_done)
         do i = 1, size(result%q)
-            row = row // "," // real_text(result%q(i))
+            call append_real(row, ",", result%q(i))
         end do
         do i = 1, size(result%p)
-            row = row // "," // real_text(result%p(i))
+            call append_real(row, ",", result%p(i))
         end do
+        call append_real(row, ",", result%max_energy_error)
+        call append_real(row, ",", result%max_constraint_residual)
+        call append_real(row, ",", result%max_velocity_residual)
         write (iterations, '(i0)') result%newton_iterations
-        row = row // "," // real_text(result%max_energy_error) // "," // &
-            real_text(result%max_constraint_residual) // "," // &
-            real_text(result%max_velocity_residual) // "," // trim(iterations) // "," // &
-            quoted(result%message)
+        row = row // "," // trim(iterations) // "," // quoted(result%message)
     end function result_row
 
     !> Text in double quotes, each quote doubled, control characters as blanks.
@@ -480,6 +564,29 @@ contains
         header = header // ",energy_error,constraint_residual,velocity_residual"
     end function samples_header
 
+    !> Write `lines` to the file `path` and close it through `text_file_t` (the C
+    !! library's streams: a write that does not reach the file is seen, which Fortran
+    !! units do not guarantee): `mode` "new" (the file must not exist), "replace" or
+    !! "append" (created when missing). `message`: "" on success, else what failed,
+    !! naming the file.
+    subroutine write_checked(path, lines, mode, message)
+        character(len=*), intent(in) :: path          !! the file
+        type(csv_text_t), intent(in) :: lines(:)      !! lines, without their ends
+        character(len=*), intent(in) :: mode          !! "new", "replace" or "append"
+        character(len=:), allocatable, intent(out) :: message !! "" or the failure
+        type(text_file_t) :: file
+        integer :: k
+        message = ""
+        if (.not. file%open(path, mode)) then
+            message = file%failure
+            return
+        end if
+        do k = 1, size(lines)
+            call file%line(lines(k)%text)
+        end do
+        if (.not. file%close()) message = file%failure
+    end subroutine write_checked
+
     !> Rename a file (POSIX rename: atomic within a file system).
     logical function rename_file(old, new) result(ok)
         character(len=*), intent(in) :: old, new
@@ -504,11 +611,10 @@ contains
         logical, intent(in) :: resume               !! reopen an existing file
         logical, allocatable, intent(out) :: skip(:) !! trajectories with a row already
         type(holosym_status_t), intent(out) :: status !! outcome
-        type(csv_text_t), allocatable :: lines(:), fields(:)
+        type(csv_text_t), allocatable :: lines(:), fields(:), first_lines(:)
         character(len=:), allocatable :: message, temporary
-        character(len=256) :: io_message
         integer, allocatable :: order(:)
-        integer :: ios, i, id, k, position, kept, unit
+        integer :: ios, i, id, position, kept
         logical :: exists, truncated
 
         call set_status(status, HOLOSYM_SUCCESS, "")
@@ -589,17 +695,9 @@ contains
             if (truncated) then
                 ! Drop the cut row: write the complete lines to a new file, rename it over.
                 temporary = path // ".resume.tmp"
-                open (newunit=unit, file=temporary, status="replace", action="write", &
-                      iostat=ios, iomsg=io_message)
-                if (ios == 0) then
-                    do i = 1, size(lines) - 1
-                        write (unit, '(a)', iostat=ios, iomsg=io_message) lines(i)%text
-                        if (ios /= 0) exit
-                    end do
-                    close (unit)
-                end if
-                if (ios /= 0) then
-                    call fail("cannot write '" // temporary // "': " // trim(io_message))
+                call write_checked(temporary, lines(:size(lines) - 1), "replace", message)
+                if (len(message) > 0) then
+                    call fail(message)
                     return
                 end if
                 if (.not. rename_file(temporary, path)) then
@@ -607,38 +705,29 @@ contains
                     return
                 end if
             end if
-            open (newunit=self%unit, file=path, status="old", position="append", &
-                  action="write", iostat=ios, iomsg=io_message)
-            self%unit_open = ios == 0
         else
-            open (newunit=self%unit, file=path, status="new", action="write", iostat=ios, &
-                  iomsg=io_message)
-            self%unit_open = ios == 0
-            if (ios == 0) write (self%unit, '(a)', iostat=ios, iomsg=io_message) &
-                "# " // description
-            if (ios == 0) write (self%unit, '(a)', iostat=ios, iomsg=io_message) &
-                result_header(n)
-            if (ios == 0) flush (self%unit, iostat=ios)
-        end if
-        if (ios /= 0) then
-            call fail("cannot write results file '" // path // "': " // trim(io_message))
-            return
+            allocate (first_lines(2))
+            first_lines(1)%text = "# " // description
+            first_lines(2)%text = result_header(n)
+            call write_checked(path, first_lines, "new", message)
+            if (len(message) > 0) then
+                call fail("cannot write results file: " // message)
+                return
+            end if
         end if
         self%rows = kept
         self%timing_path = timing_path
         if (len(timing_path) > 0) then
             inquire (file=timing_path, exist=exists)
-            open (newunit=self%timing_unit, file=timing_path, position="append", &
-                  action="write", iostat=ios, iomsg=io_message)
-            self%timing_open = ios == 0
-            if (ios == 0 .and. .not. exists) write (self%timing_unit, '(a)', iostat=ios) &
-                "id,cpu_seconds,wall_seconds"
-            if (ios /= 0) then
-                close (self%unit)
-                self%unit_open = .false.
-                call fail("cannot write timing log '" // timing_path // "': " // &
-                    trim(io_message))
-                return
+            if (.not. exists) then
+                if (allocated(first_lines)) deallocate (first_lines)
+                allocate (first_lines(1))
+                first_lines(1)%text = "id,cpu_seconds,wall_seconds"
+                call write_checked(timing_path, first_lines, "new", message)
+                if (len(message) > 0) then
+                    call fail("cannot write timing log: " // message)
+                    return
+                end if
             end if
         end if
         if (truncated .and. self%progress_unit >= 0) write (self%progress_unit, '(a)') &
@@ -647,7 +736,7 @@ contains
         self%to_do = count(.not. skip)
         self%done = 0
         self%failed = 0
-        self%io_status = 0
+        self%io_message = ""
         call system_clock(self%clock_start, self%clock_rate)
         self%clock_last = self%clock_start
 
@@ -681,34 +770,56 @@ contains
 
     end subroutine sink_open
 
-    !> Write the row of a completed trajectory and flush it; the timing log likewise; a
-    !! progress line at most every `progress_interval` seconds and after the last one.
-    !! A write failure halts the run (`finish` reports it).
+    !> Append the row of a completed trajectory to the results file (closed and checked:
+    !! `write_checked`); the timing log likewise; a progress line at most every
+    !! `progress_interval` seconds and after the last one. A write failure, or samples
+    !! that `store_samples` could not write (no row is written for that trajectory), halts
+    !! the run (`finish` reports it).
     subroutine sink_completed(self, result, halt)
         class(ensemble_csv_sink), intent(inout) :: self !! the sink
         type(ensemble_result_t), intent(in) :: result   !! the completed trajectory
         logical, intent(inout) :: halt                  !! set on a write failure
-        character(len=256) :: io_message
         character(len=32) :: rate_text, left_text
+        character(len=:), allocatable :: message
+        type(csv_text_t), allocatable :: row(:)
         integer(int64) :: clock_now
         real(wp) :: elapsed, rate
-        integer :: ios
 
-        write (self%unit, '(a)', iostat=ios, iomsg=io_message) result_row(result)
-        if (ios == 0) flush (self%unit, iostat=ios)
-        if (ios /= 0) then
-            self%io_status = ios
-            self%io_message = "writing '" // self%path // "' failed: " // trim(io_message)
+        if (.not. allocated(self%io_message)) self%io_message = ""
+        if (.not. allocated(self%path)) self%io_message = "ensemble_csv_sink: a result " // &
+            "before a successful open"
+        if (len(self%io_message) > 0) then
+            halt = .true.
+            return
+        end if
+        ! Samples that could not be written are an I/O failure of the run, not of the
+        ! trajectory: no row, so that --resume computes it again.
+        if (result%code == HOLOSYM_INVALID_ARGUMENT .and. &
+            index(result%message, samples_failure) == 1) then
+            self%io_message = "trajectory " // int_str(result%id) // ": " // result%message
+            halt = .true.
+            return
+        end if
+        allocate (row(1))
+        row(1)%text = result_row(result)
+        call write_checked(self%path, row, "append", message)
+        if (len(message) > 0) then
+            self%io_message = "writing the results failed: " // message
             halt = .true.
             return
         end if
         self%rows = self%rows + 1
         self%done = self%done + 1
         if (result%code /= HOLOSYM_SUCCESS) self%failed = self%failed + 1
-        if (self%timing_open) then
-            write (self%timing_unit, '(a)', iostat=ios) int_str(result%id) // "," // &
-                seconds_text(result%cpu_seconds) // "," // seconds_text(result%wall_seconds)
-            flush (self%timing_unit, iostat=ios)
+        if (len(self%timing_path) > 0) then
+            row(1)%text = int_str(result%id) // "," // seconds_text(result%cpu_seconds) // &
+                "," // seconds_text(result%wall_seconds)
+            call write_checked(self%timing_path, row, "append", message)
+            if (len(message) > 0) then
+                self%io_message = "writing the timing log failed: " // message
+                halt = .true.
+                return
+            end if
         end if
         if (self%progress_unit < 0) return
         call system_clock(clock_now)
@@ -753,31 +864,29 @@ contains
         class(ensemble_csv_sink), intent(in) :: self  !! the sink
         type(ensemble_result_t), intent(in) :: result !! the trajectory with its samples
         type(holosym_status_t), intent(out) :: status !! outcome
-        character(len=:), allocatable :: path, temporary, line
-        character(len=256) :: io_message
-        integer :: unit, ios, j, i
+        character(len=:), allocatable :: path, temporary, line, message
+        type(csv_text_t), allocatable :: lines(:)
+        integer :: j, i
 
         call set_status(status, HOLOSYM_SUCCESS, "")
         if (.not. allocated(self%samples_dir)) return
         if (len(self%samples_dir) == 0 .or. .not. allocated(result%samples)) return
         path = self%samples_dir // "/" // int_str(result%id) // ".csv"
         temporary = path // ".part"
-        open (newunit=unit, file=temporary, status="replace", action="write", iostat=ios, &
-              iomsg=io_message)
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=io_message) &
-            samples_header(size(result%q))
+        allocate (lines(size(result%samples, 2) + 1))
+        lines(1)%text = samples_header(size(result%q))
         do j = 1, size(result%samples, 2)
-            if (ios /= 0) exit
-            line = real_text(result%samples(1, j))
+            line = ""
+            call append_real(line, "", result%samples(1, j))
             do i = 2, size(result%samples, 1)
-                line = line // "," // real_text(result%samples(i, j))
+                call append_real(line, ",", result%samples(i, j))
             end do
-            write (unit, '(a)', iostat=ios, iomsg=io_message) line
+            lines(j + 1)%text = line
         end do
-        if (ios == 0) close (unit, iostat=ios, iomsg=io_message)
-        if (ios /= 0) then
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot write '" // temporary // &
-                "': " // trim(io_message))
+        call write_checked(temporary, lines, "replace", message)
+        if (len(message) > 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot write the samples: " // &
+                message)
             return
         end if
         if (.not. rename_file(temporary, path)) call set_status(status, &
@@ -799,16 +908,12 @@ contains
         type(holosym_status_t), intent(out) :: status   !! outcome
         type(csv_text_t), allocatable :: lines(:), fields(:)
         character(len=:), allocatable :: message, temporary
-        character(len=256) :: io_message
         integer, allocatable :: keys(:), order(:)
-        integer :: ios, i, unit
+        integer :: ios, i
 
         call set_status(status, HOLOSYM_SUCCESS, "")
-        if (self%unit_open) close (self%unit)
-        self%unit_open = .false.
-        if (self%timing_open) close (self%timing_unit)
-        self%timing_open = .false.
-        if (self%io_status /= 0) then
+        if (.not. allocated(self%io_message)) self%io_message = ""
+        if (len(self%io_message) > 0) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, self%io_message)
             return
         end if
@@ -827,18 +932,10 @@ contains
         order = sorted_order(keys)
         if (all(order == [(i, i = 1, size(order))])) return
         temporary = self%path // ".sort.tmp"
-        open (newunit=unit, file=temporary, status="replace", action="write", iostat=ios, &
-              iomsg=io_message)
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=io_message) lines(1)%text
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=io_message) lines(2)%text
-        do i = 1, size(order)
-            if (ios /= 0) exit
-            write (unit, '(a)', iostat=ios, iomsg=io_message) lines(order(i) + 2)%text
-        end do
-        if (ios == 0) close (unit, iostat=ios, iomsg=io_message)
-        if (ios /= 0) then
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot write '" // temporary // &
-                "' (the unsorted rows are kept in '" // self%path // "'): " // trim(io_message))
+        call write_checked(temporary, lines([1, 2, order + 2]), "replace", message)
+        if (len(message) > 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, message // " (the unsorted " // &
+                "rows are kept in '" // self%path // "')")
             return
         end if
         if (.not. rename_file(temporary, self%path)) call set_status(status, &

@@ -28,6 +28,18 @@
 !!
 !! `'native'` is a synonym of `'real128'` and `'lapack'` of `'mixed'` (the name of the
 !! default in the real64 build, `-DHOLOSYM_REAL64`). `stats` counts the work.
+!!
+!! At large h the step's equations can have several solutions, and Newton may converge to
+!! one that is not the continuation of the flow. With `check_roots` (default) a step whose
+!! energy changes by more than 1e-2 or whose momentum polynomial misses its end momenta by
+!! more than the state's size is accepted only when it agrees with two steps of h/2 (the
+!! root from the constant first guess is tried as well), else it fails with
+!! HOLOSYM_STEP_TOO_LARGE. A failed step is reported with the code of its cause: h below
+!! the resolution of the state (HOLOSYM_STEP_TOO_SMALL), constraints dependent at the
+!! start or within the step (HOLOSYM_RANK_DEFICIENT_CONSTRAINTS), h too large for the
+!! equations (HOLOSYM_STEP_TOO_LARGE), else the solver's own code. Every setting is
+!! checked before a step (HOLOSYM_INVALID_ARGUMENT names it). Codes and limits:
+!! docs/status-codes.md.
 module holosym_integrator
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, wp_is_double
@@ -36,10 +48,12 @@ module holosym_integrator
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
-        HOLOSYM_NEWTON_NOT_CONVERGED
+        HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_STEP_TOO_LARGE, &
+        HOLOSYM_STEP_TOO_SMALL
     use holosym_problem, only: constrained_hamiltonian
     use holosym_newton, only: newton_settings_t, newton_report_t, newton_solve, &
-        newton_workspace_t, all_finite, stagnation_floor, LINEAR_SOLVER_NATIVE, &
+        newton_workspace_t, all_finite, stagnation_floor, newton_settings_valid, &
+        LINEAR_SOLVER_NATIVE, &
         LINEAR_SOLVER_MIXED
     use holosym_scheme, only: discrete_scheme, JACOBIAN_ASSEMBLED, &
         JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
@@ -67,6 +81,33 @@ module holosym_integrator
     !> The reduced step falls back on the general one for systems with at most this many
     !! general unknowns (its dense workspace is then at most a few megabytes).
     integer, parameter :: general_fallback_size = 400
+
+    !> A step whose energy changes by more than this, relative to |H| + |p . H_p| at the
+    !! step, is checked for a spurious Newton root (`check_roots`): the exact flow keeps H,
+    !! and ordinary steps change it far less (at most 2e-3 in the paper's tables, h <= 1/2).
+    real(wp), parameter :: root_energy_change = 1.0e-2_wp
+    !> ... so is a step whose momentum polynomial ends farther than this, relative to the
+    !! size of the state, from the step's end momenta (`momentum_jump`): at most 0.3 for
+    !! the continuation of the flow in the paper's tables and on a double pendulum at
+    !! h = 1/4, 4 to 40 at the spurious roots found on a double pendulum and on a charged
+    !! particle on a sphere (h = 1/8 to 1).
+    real(wp), parameter :: root_momentum_jump = 1
+    !> ... and accepted when its end state is within this distance, relative to the size of
+    !! the state, of two steps of h/2 (spurious roots land O(1) away).
+    real(wp), parameter :: root_distance = 1.0e-2_wp
+    !> A singular Newton matrix is put down to the constraints when Phi Phi^T has a relative
+    !! pivot below this, at the step's start or at a node of the iterate (singular values
+    !! of Phi below epsilon**(1/4) relative): there they are nearly dependent, and their
+    !! multipliers are determined to no digit in real64 and to few in working precision.
+    real(wp), parameter :: dependence_threshold = sqrt(epsilon(1.0_wp))
+    !> Factor on the nominal resolution limit of a state (`resolution_limit`): the step's
+    !! equations amplify the round-off of q; on the pendulums Newton fails from h = 1e-11
+    !! (real128) where the nominal limit is 6e-12, and never from 3e-11 on.
+    real(wp), parameter :: resolution_margin = 64
+    !> A singular step whose Newton matrix at the constant guess is this many times better
+    !! conditioned (pivot ratio) at h/16 than at h is too large: beyond the system's time
+    !! scale the ratio falls like 1/h (16 times per factor 16), below it it rises with h.
+    real(wp), parameter :: large_step_gain = 4
 
     !> What one step did and how well the constraints hold after it.
     type :: step_info_t
@@ -131,6 +172,27 @@ module holosym_integrator
         procedure :: available => dense_available
     end type step_dense_output
 
+    !> The numbers of a solved step that is not accepted yet (see `commit_step`).
+    type :: pending_t
+        logical :: general = .true.       ! solved by the general scheme (else the reduced)
+        logical :: extrapolated = .false. ! from the extrapolated first guess
+        integer :: iterations = 0, factorizations = 0, residuals = 0, lowered = 0
+        integer :: gradients = 0, hessians = 0
+        real(wp) :: pivot_ratio = 0
+        real(wp) :: velocity = 0          ! max |Phi H_p| at the end state
+        real(wp) :: energy = 0            ! H at the end state (when `energy_known`)
+        logical :: energy_known = .false.
+        real(wp) :: energy_change = 0     ! see `energy_change`
+        real(wp) :: momentum_jump = 0     ! see `momentum_jump`
+    end type pending_t
+
+    !> A solved step set aside while another root is tried (`verify_root`).
+    type :: step_candidate_t
+        type(pending_t) :: pending
+        real(wp), allocatable :: x(:)      ! the solution (general or reduced unknowns)
+        real(wp), allocatable :: dq(:), dp(:)
+    end type step_candidate_t
+
     !> Receives every step of `integrate`. Extend it; keep your data as components.
     type, abstract :: step_observer
         !> The dense output of the step just taken, set by `integrate` before each call of
@@ -178,6 +240,12 @@ module holosym_integrator
         !> Use the reduced step (momenta eliminated, sparse linear algebra) when the system
         !! declares a constant diagonal mass matrix (`diagonal_mass`); read by `init`.
         logical :: structured = .true.
+        !> Check every step for a spurious Newton root: a step that changes the energy by
+        !! more than 1e-2 (relative to |H| + |p . H_p|), or whose momentum polynomial misses
+        !! the end momenta by more than the state's size, is accepted only when it agrees
+        !! with two steps of h/2 (the root from the constant first guess is tried too); else
+        !! it fails with HOLOSYM_STEP_TOO_LARGE. Costs one call of H per step.
+        logical :: check_roots = .true.
         type(discrete_scheme), private :: scheme
         type(reduced_step_t), private :: reduced
         logical, private :: reduced_active = .false.
@@ -197,7 +265,15 @@ module holosym_integrator
         real(wp), private :: workspace_h = 0
         integer, private :: applied_modes(3) = 0
         real(wp), allocatable, private :: x_work(:), dq_work(:), dp_work(:)
-        real(wp), allocatable, private :: q_end_work(:), p_end_work(:)
+        real(wp), allocatable, private :: q_end_work(:), p_end_work(:), hp_work(:)
+        ! The step solved by the last attempt, before it is accepted.
+        type(pending_t), private :: pending
+        ! H at the end of the last accepted step, for the next step's energy check.
+        real(wp), private :: last_energy = 0
+        logical, private :: last_energy_known = .false.
+        ! Why the Newton matrix of the failing attempts was singular, when the constraints
+        ! are dependent at a displacement node of the iterate ("" otherwise).
+        character(len=:), allocatable, private :: dependent_nodes
     contains
         !> Set up for a system and (M, N, G).
         procedure :: init => integrator_init
@@ -232,11 +308,13 @@ contains
         real(wp), allocatable :: mass(:)
         integer :: nx
 
-        allocate (mass(sys%n))
-        self%reduced_active = .false.
-        if (self%structured .and. sys%n >= 1) self%reduced_active = reduced_structure(sys, mass)
         ! Checks of (M, N, G) and of the sizes are the general scheme's.
         call scheme%check(M, N, G, sys%n, sys%m, local)
+        self%reduced_active = .false.
+        if (local%ok() .and. self%structured) then
+            allocate (mass(sys%n))
+            self%reduced_active = reduced_structure(sys, mass)
+        end if
         if (local%ok() .and. self%reduced_active) &
             call self%reduced%init(sys, M, N, G, local)
         ! The general scheme's workspace is dense (cubic in the size): as the reduced step's
@@ -257,13 +335,15 @@ contains
         allocate (self%last_info%lambda(sys%m, 0:M))
         self%last_info%lambda = 0
         if (allocated(self%x_work)) deallocate (self%x_work, self%dq_work, self%dp_work, &
-                                                self%q_end_work, self%p_end_work)
+                                                self%q_end_work, self%p_end_work, self%hp_work)
         if (allocated(self%last_x)) deallocate (self%last_x, self%last_qa, self%last_pa, &
                                                 self%last_qb, self%last_pb)
         nx = scheme%nx
         if (.not. self%general_ready) nx = 0
         allocate (self%x_work(nx), self%dq_work(sys%n), self%dp_work(sys%n), &
-                  self%q_end_work(sys%n), self%p_end_work(sys%n))
+                  self%q_end_work(sys%n), self%p_end_work(sys%n), self%hp_work(sys%n))
+        self%last_energy_known = .false.
+        self%dependent_nodes = ""
         allocate (self%last_x(nx), self%last_qa(sys%n), self%last_pa(sys%n), &
                   self%last_qb(sys%n), self%last_pb(sys%n))
         ! A fresh workspace: nothing learnt by an earlier run (kept factors, the
@@ -293,17 +373,10 @@ contains
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: position, velocity, scaled_position, scaled_velocity, tolerance
+        real(wp) :: position, velocity, scaled_position, scaled_velocity, tolerance, hp(size(q))
         character(len=:), allocatable :: rank_message
         logical :: continuing
 
-        ! The end state of this integrator's last step passed its end-state check: as the
-        ! next start it needs no rank test (step-by-step callers do not pay one per step)
-        ! and meets the end-state tolerance (looser than `manifold_tolerance` when the
-        ! Newton tolerance is).
-        continuing = continues_last_step(self, q, p)
-        tolerance = self%manifold_tolerance
-        if (continuing) tolerance = max(tolerance, end_tolerance(self))
         if (.not. self%ready) then
             call set_status(status, HOLOSYM_NOT_INITIALIZED, "call init before step or integrate")
         else if (.not. settings_valid(self, rank_message)) then
@@ -315,16 +388,35 @@ contains
         else if (size(q) /= sys%n .or. size(p) /= sys%n) then
             call set_status(status, HOLOSYM_SIZE_MISMATCH, "q and p must have size n = " // &
                 int_str(sys%n) // "; got " // int_str(size(q)) // " and " // int_str(size(p)))
-        else if (.not. (is_finite(h) .and. h > 0)) then
+        else if (.not. is_finite(h)) then
             call set_status(status, HOLOSYM_INVALID_STEP_SIZE, "step size must be positive and " &
                 // "finite; got h = " // real_str(h))
+        else if (h <= 0) then
+            call set_status(status, HOLOSYM_INVALID_STEP_SIZE, "step size must be positive and " &
+                // "finite; got h = " // real_str(h))
+        else if (h < tiny(h)) then
+            ! 1/h would overflow: far below the resolution of any state.
+            call set_status(status, HOLOSYM_STEP_TOO_SMALL, "step size h = " // real_str(h) // &
+                " is below the smallest normal number " // real_str(tiny(h)) // &
+                " and below the resolution of any state")
         else if (.not. (all(is_finite(q)) .and. all(is_finite(p)))) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "q or p contains NaN or Inf")
-        else if (.not. continuing .and. .not. rank_test(self, sys, q, rank_message)) then
-            call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, rank_message)
         else
+            ! The end state of this integrator's last step passed its end-state check: as
+            ! the next start it needs no rank test (step-by-step callers do not pay one per
+            ! step) and meets the end-state tolerance (looser than `manifold_tolerance` when
+            ! the Newton tolerance is).
+            continuing = continues_last_step(self, q, p)
+            tolerance = self%manifold_tolerance
+            if (continuing) tolerance = max(tolerance, end_tolerance(self))
+            if (.not. continuing) then
+                if (.not. rank_test(self, sys, q, rank_message)) then
+                    call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, rank_message)
+                    return
+                end if
+            end if
             call state_residuals(self, sys, q, p, position, velocity, scaled_position, &
-                                 scaled_velocity)
+                                 scaled_velocity, hp)
             if (.not. (is_finite(scaled_position) .and. is_finite(scaled_velocity))) then
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, &
                     "constraint, constraint_jacobian " &
@@ -340,6 +432,12 @@ contains
                     "constraint: max|Phi H_p| = " // real_str(velocity) // " (scaled " // &
                     real_str(scaled_velocity) // " > tolerance " // &
                     real_str(tolerance) // "); project it first")
+            else if (h < epsilon(h) * state_resolution(self, q, p, hp)) then
+                ! Far below the resolution: the step would move nothing, and its equations
+                ! would overflow (1/h) in the real64 parts of the solve.
+                call set_status(status, HOLOSYM_STEP_TOO_SMALL, "step size h = " // &
+                    real_str(h) // " is far below the resolution of this state (about h = " &
+                    // real_str(state_resolution(self, q, p, hp)) // "); use h >= that")
             else
                 call set_status(status, HOLOSYM_SUCCESS, "")
             end if
@@ -347,33 +445,21 @@ contains
     end subroutine validate
 
     !> Whether every setting of the integrator is in its range; `message` names the first
-    !! that is not.
+    !! that is not: the Newton settings (`newton_settings_valid`), 0 < manifold_tolerance < 1
+    !! (finite) and the option strings.
     logical function settings_valid(self, message)
         class(constrained_integrator), intent(in) :: self
         character(len=:), allocatable, intent(out) :: message
-        message = ""
-        associate (s => self%newton)
-            if (s%max_iterations < 1) then
-                message = "newton%max_iterations must be >= 1, got " // &
-                    int_str(s%max_iterations)
-            else if (.not. (is_finite(s%tolerance) .and. s%tolerance > 0)) then
-                message = "newton%tolerance must be positive and finite, got " // &
-                    real_str(s%tolerance)
-            else if (.not. (is_finite(s%stagnation_level) .and. s%stagnation_level >= 0)) then
-                message = "newton%stagnation_level must be >= 0 and finite, got " // &
-                    real_str(s%stagnation_level)
-            else if (.not. (s%contraction_limit > 0 .and. s%contraction_limit < 1)) then
-                message = "newton%contraction_limit must be in (0, 1), got " // &
-                    real_str(s%contraction_limit)
-            else if (.not. (is_finite(s%jacobian_cost) .and. s%jacobian_cost >= 0)) then
-                message = "newton%jacobian_cost must be >= 0 and finite, got " // &
-                    real_str(s%jacobian_cost)
-            else if (.not. (is_finite(self%manifold_tolerance) .and. &
-                            self%manifold_tolerance > 0)) then
-                message = "manifold_tolerance must be positive and finite, got " // &
+        if (newton_settings_valid(self%newton, message)) then
+            ! Finiteness first: a NaN in an ordered comparison raises 'invalid'.
+            if (.not. is_finite(self%manifold_tolerance)) then
+                message = "manifold_tolerance must be finite, got " // &
+                    real_str(self%manifold_tolerance)
+            else if (self%manifold_tolerance <= 0 .or. self%manifold_tolerance >= 1) then
+                message = "manifold_tolerance must be in (0, 1), got " // &
                     real_str(self%manifold_tolerance)
             end if
-        end associate
+        end if
         if (len(message) == 0) then
             select case (self%linear_solver)
             case ("real128", "native", "mixed", "lapack")
@@ -410,34 +496,37 @@ contains
 
     !> `manifold_residuals`, through Phi's sparse pattern on the reduced path.
     subroutine state_residuals(self, sys, q, p, position, velocity, scaled_position, &
-                               scaled_velocity)
+                               scaled_velocity, velocity_field)
         class(constrained_integrator), intent(in) :: self
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:), p(:)
         real(wp), intent(out) :: position, velocity, scaled_position, scaled_velocity
+        real(wp), intent(out), optional :: velocity_field(:) !! H_p(q, p)
         if (self%reduced_active) then
             call sparse_manifold_residuals(sys, self%reduced%scheme%layout%phi_rows, &
                 self%reduced%scheme%layout%phi_cols, q, p, position, velocity, &
-                scaled_position, scaled_velocity)
+                scaled_position, scaled_velocity, velocity_field)
         else
             call manifold_residuals(sys, q, p, position, velocity, scaled_position, &
-                                    scaled_velocity)
+                                    scaled_velocity, velocity_field)
         end if
     end subroutine state_residuals
 
     !> `full_rank_constraints`, banded through Phi's sparse pattern on the reduced path.
-    logical function rank_test(self, sys, q, message)
+    logical function rank_test(self, sys, q, message, threshold)
         class(constrained_integrator), intent(in) :: self
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:)
         character(len=:), allocatable, intent(out) :: message
+        real(wp), intent(in), optional :: threshold !! relative pivot of Phi Phi^T
         if (self%reduced_active) then
             associate (lay => self%reduced%scheme%layout)
                 rank_test = sparse_full_rank_constraints(sys, lay%phi_rows, lay%phi_cols, &
-                                                         lay%constraint_order, q, message)
+                                                         lay%constraint_order, q, message, &
+                                                         threshold)
             end associate
         else
-            rank_test = full_rank_constraints(sys, q, message)
+            rank_test = full_rank_constraints(sys, q, message, threshold)
         end if
     end function rank_test
 
@@ -521,44 +610,525 @@ contains
         plain%presolve = .false.
     end function plain_settings
 
-    !> Solve one step from (q, p) without changing them; the increments are left in
-    !! self%dq_work, self%dp_work and the step's data in self%last_*.
+    !> One step from (q, p), which stay unchanged: solve (`attempt_step`), check the root
+    !! (`energy_change`, `verify_root`) and accept it (`commit_step`: the increments in
+    !! self%dq_work, self%dp_work, the step's data in self%last_*). On failure the code
+    !! says why (`diagnose_failure`) and the last accepted step stays the last step.
     subroutine solve_step(self, sys, q, p, h, status)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
-        character(len=:), allocatable :: reduced_message
-        if (.not. self%reduced_active) then
-            call solve_general(self, sys, q, p, h, status)
+        self%dependent_nodes = ""
+        call attempt_step(self, sys, q, p, h, .true., status)
+        if (.not. status%ok()) then
+            call diagnose_failure(self, sys, q, p, h, status)
             return
         end if
-        call solve_reduced(self, sys, q, p, h, status)
-        self%last_general = .false.
+        if (self%check_roots) then
+            if (suspicious(self, sys, q, p, h)) then
+                call verify_root(self, sys, q, p, h, status)
+                return
+            end if
+        end if
+        call commit_step(self, sys, q, p, h, .false.)
+    end subroutine solve_step
+
+    !> Whether the solved step may be a spurious Newton root: its energy change exceeds
+    !! `root_energy_change` or its momentum polynomial jumps by more than
+    !! `root_momentum_jump` (`energy_change`, `momentum_jump`; both are recorded).
+    logical function suspicious(self, sys, q, p, h)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        self%pending%energy_change = energy_change(self, sys, q, p)
+        self%pending%momentum_jump = momentum_jump(self, q, p, h)
+        suspicious = self%pending%energy_change > root_energy_change .or. &
+            self%pending%momentum_jump > root_momentum_jump
+    end function suspicious
+
+    !> max(|p~(0) - p_a|, |p~(1) - p_b|) / max(|q|, |p|) of the solved step: the ends of
+    !! its momentum polynomial against its end momenta, relative to the state's size.
+    function momentum_jump(self, q, p, h) result(jump)
+        class(constrained_integrator), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:), h
+        real(wp) :: jump, scale
+        if (self%pending%general) then
+            jump = self%scheme%momentum_jump(self%x_work, self%dp_work)
+        else
+            jump = self%reduced%scheme%momentum_jump(self%reduced%x, p, self%dp_work, h)
+        end if
+        scale = max(maxval(abs(q)), maxval(abs(p)))
+        if (scale > 0) jump = jump / scale
+        if (.not. is_finite(jump)) jump = 0
+    end function momentum_jump
+
+    !> Solve the step from (q, p) without accepting it: the reduced step when active (the
+    !! general scheme its fallback for small systems), else the general scheme. With
+    !! `extrapolation` false both start from the constant first guess.
+    subroutine attempt_step(self, sys, q, p, h, extrapolation, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        logical, intent(in) :: extrapolation
+        type(holosym_status_t), intent(out) :: status
+        character(len=:), allocatable :: reduced_message
+        if (.not. self%reduced_active) then
+            call solve_general(self, sys, q, p, h, extrapolation, status)
+            return
+        end if
+        call solve_reduced(self, sys, q, p, h, extrapolation, status)
         if (status%ok() .or. .not. self%general_ready .or. &
             status%code == HOLOSYM_NONFINITE_VALUE) return
         ! The reduced step factors its Newton matrix in real64 only: where that is too
         ! ill-conditioned (nearly dependent constraints), the general step of a small system
-        ! has working-precision factors to fall back on.
+        ! has working-precision factors to fall back on (from the constant guess).
         reduced_message = status%message
-        call solve_general(self, sys, q, p, h, status)
-        if (status%ok()) then
-            self%last_general = .true.
-        else
+        call solve_general(self, sys, q, p, h, .false., status)
+        if (.not. status%ok()) &
             status%message = status%message // " (after the " // reduced_message // ")"
-        end if
-    end subroutine solve_step
+    end subroutine attempt_step
 
-    !> `solve_step` by the general scheme (all unknowns, dense Newton).
-    subroutine solve_general(self, sys, q, p, h, status)
+    !> Accept the step solved by the last attempt (or restored by `restore_candidate`):
+    !! it becomes the last step (dense output, extrapolation, `last_step`). `rebind` binds
+    !! the general scheme to this step again (after other attempts).
+    subroutine commit_step(self, sys, q, p, h, rebind)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        logical, intent(in) :: rebind
+        real(wp) :: max_phi
+        integer :: i
+        if (self%pending%general) then
+            if (rebind) call self%scheme%set_step(sys, q, p, h)
+            call self%scheme%node_values(self%x_work, self%last_info%lambda, max_phi)
+            self%last_x = self%x_work
+        else
+            call self%reduced%accept(q, h)
+            call self%reduced%scheme%multipliers(self%reduced%last_x, h, self%last_info%lambda)
+            max_phi = 0
+            if (sys%m > 0) then
+                do i = 0, self%scheme%order_m
+                    self%p_end_work = q
+                    if (i > 0) self%p_end_work = q + &
+                        self%reduced%last_x(self%reduced%scheme%layout%z_col(:, i))
+                    call sys%constraint(self%p_end_work, self%reduced%scheme%phi_work)
+                    max_phi = max(max_phi, maxval(abs(self%reduced%scheme%phi_work)))
+                end do
+            end if
+        end if
+        self%last_general = self%pending%general
+        associate (info => self%last_info, pending => self%pending)
+            info%newton_iterations = pending%iterations
+            info%constraint_residual = max_phi
+            info%velocity_residual = pending%velocity
+            info%pivot_ratio = pending%pivot_ratio
+            info%lu_factorizations = pending%factorizations
+            info%residual_evaluations = pending%residuals
+            info%lowered_residual_evaluations = pending%lowered
+            info%gradient_evaluations = pending%gradients
+            info%hessian_evaluations = pending%hessians
+        end associate
+        self%last_qa = q
+        self%last_pa = p
+        self%last_h = h
+        self%last_qb = q + self%dq_work
+        self%last_pb = p + self%dp_work
+        self%last_energy = self%pending%energy
+        self%last_energy_known = self%pending%energy_known
+        self%have_last = .true.
+        self%stats%steps = self%stats%steps + 1
+    end subroutine commit_step
+
+    !> Relative energy change of the solved step, |H(q_b, p_b) - H(q_a, p_a)| /
+    !! (|H(q_a, p_a)| + |p_b . H_p(q_b, p_b)|) with q_b = q + dq_work, p_b = p + dp_work
+    !! (H(q_a, p_a) from the last step when the state continues it; H_p(q_b, p_b) from
+    !! the solve's end-state check, in hp_work). H(q_b, p_b) is kept for the next step.
+    !! 0 when a value is not finite (nothing to compare).
+    function energy_change(self, sys, q, p) result(change)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp) :: change
+        real(wp) :: start, finish, power
+        if (self%last_energy_known .and. continues_last_step(self, q, p)) then
+            start = self%last_energy
+        else
+            start = sys%hamiltonian(q, p)
+        end if
+        ! H_p(q_b, p_b) is in hp_work from the end-state check of the solve.
+        self%q_end_work = q + self%dq_work
+        self%p_end_work = p + self%dp_work
+        finish = sys%hamiltonian(self%q_end_work, self%p_end_work)
+        power = abs(sum(self%p_end_work * self%hp_work))
+        self%pending%energy = finish
+        self%pending%energy_known = is_finite(finish)
+        change = 0
+        if (.not. (is_finite(start) .and. is_finite(finish) .and. is_finite(power))) return
+        if (abs(start) + power > 0) then
+            change = abs(finish - start) / (abs(start) + power)
+        else if (finish /= start) then
+            change = huge(1.0_wp)
+        end if
+    end function energy_change
+
+    !> The step changed the energy by more than `root_energy_change`: Newton may have found
+    !! a root that is not the continuation of the flow. Reference: two steps of h/2 from the
+    !! constant guess. Candidates: the root found, and (when that came from the
+    !! extrapolated guess) the root from the constant guess. The candidate within
+    !! `root_distance` of the reference (the closest) is accepted; without a reference, the
+    !! constant-guess root when its energy change is small. Otherwise the step fails with
+    !! HOLOSYM_STEP_TOO_LARGE.
+    subroutine verify_root(self, sys, q, p, h, status)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: scale, max_phi, end_velocity_residual
+        type(step_candidate_t) :: first, second
+        type(holosym_status_t) :: local
+        real(wp) :: q_half(size(q)), p_half(size(p)), scale, distance(2)
+        logical :: half_ok, have_second, second_suspicious, had_last
+        integer :: chosen
+
+        had_last = self%have_last
+        call take_candidate(self, first)
+        ! Reference: two half steps, each from the constant guess.
+        call attempt_step(self, sys, q, p, h / 2, .false., local)
+        half_ok = local%ok()
+        if (half_ok) then
+            q_half = q + self%dq_work
+            p_half = p + self%dp_work
+            call attempt_step(self, sys, q_half, p_half, h / 2, .false., local)
+            half_ok = local%ok()
+            if (half_ok) then
+                q_half = q_half + self%dq_work
+                p_half = p_half + self%dp_work
+            end if
+        end if
+        ! The other root, last: when chosen it is accepted as solved.
+        have_second = .false.
+        if (first%pending%extrapolated) then
+            call attempt_step(self, sys, q, p, h, .false., local)
+            if (local%ok()) then
+                ! Records the candidate's energy change and momentum jump.
+                second_suspicious = suspicious(self, sys, q, p, h)
+                call take_candidate(self, second)
+                have_second = .true.
+            end if
+        end if
+        scale = max(maxval(abs(q)), maxval(abs(p)))
+        if (.not. scale > 0) scale = 1
+        distance = huge(1.0_wp)
+        if (half_ok) then
+            distance(1) = max(maxval(abs(first%dq + q - q_half)), &
+                              maxval(abs(first%dp + p - p_half))) / scale
+            if (have_second) distance(2) = max(maxval(abs(second%dq + q - q_half)), &
+                                                maxval(abs(second%dp + p - p_half))) / scale
+        end if
+        chosen = 0
+        if (half_ok) then
+            if (distance(1) <= root_distance) chosen = 1
+            if (have_second .and. distance(2) <= root_distance) then
+                if (chosen == 0) then
+                    chosen = 2
+                else if (distance(2) < distance(1)) then
+                    chosen = 2
+                end if
+            end if
+        else if (have_second) then
+            if (.not. second_suspicious) chosen = 2
+        end if
+        select case (chosen)
+        case (1)
+            call restore_candidate(self, first)
+            call commit_step(self, sys, q, p, h, .true.)
+            call set_status(status, HOLOSYM_SUCCESS, "")
+        case (2)
+            call restore_candidate(self, second)
+            call commit_step(self, sys, q, p, h, .true.)
+            call set_status(status, HOLOSYM_SUCCESS, "")
+        case default
+            call set_status(status, HOLOSYM_STEP_TOO_LARGE, step_label(self, h) // &
+                ": the step is too large for a unique solution: Newton's root changes " // &
+                "the energy by " // real_str(first%pending%energy_change) // " (relative; " // &
+                "checked above " // real_str(root_energy_change) // "), its momentum " // &
+                "polynomial misses the end momenta by " // &
+                real_str(first%pending%momentum_jump) // " (checked above " // &
+                real_str(root_momentum_jump) // ")" // merge_text(half_ok, " and it lies " // &
+                real_str(distance(1)) // " (relative) from two steps of h/2 (accepted " // &
+                "within " // real_str(root_distance) // ")", ", and two steps of h/2 fail") // &
+                merge_text(have_second, "; the root from the constant first guess " // &
+                "changes the energy by " // real_str(second%pending%energy_change) // &
+                merge_text(half_ok, " and lies " // real_str(distance(2)) // " from them", &
+                ""), "") // "; reduce h")
+            ! The last accepted step stays the last step (its data were not touched).
+            self%have_last = had_last
+        end select
+    end subroutine verify_root
+
+    !> `yes` when `condition`, else `no`.
+    pure function merge_text(condition, yes, no) result(text)
+        logical, intent(in) :: condition
+        character(len=*), intent(in) :: yes, no
+        character(len=:), allocatable :: text
+        if (condition) then
+            text = yes
+        else
+            text = no
+        end if
+    end function merge_text
+
+    !> "step with (M, N, G) = (2, 1, 3), h = 1.25000E-0001", for messages.
+    function step_label(self, h) result(text)
+        class(constrained_integrator), intent(in) :: self
+        real(wp), intent(in) :: h
+        character(len=:), allocatable :: text
+        text = "step with (M, N, G) = (" // int_str(self%scheme%order_m) // ", " // &
+            int_str(self%scheme%order_n) // ", " // int_str(self%scheme%gauss_points) // &
+            "), h = " // real_str(h)
+    end function step_label
+
+    !> Set the solved step of the last attempt aside.
+    subroutine take_candidate(self, candidate)
+        class(constrained_integrator), intent(in) :: self
+        type(step_candidate_t), intent(out) :: candidate
+        candidate%pending = self%pending
+        if (self%pending%general) then
+            candidate%x = self%x_work
+        else
+            candidate%x = self%reduced%x
+        end if
+        candidate%dq = self%dq_work
+        candidate%dp = self%dp_work
+    end subroutine take_candidate
+
+    !> Make a candidate the solved step again (to be committed with `rebind`).
+    subroutine restore_candidate(self, candidate)
+        class(constrained_integrator), intent(inout) :: self
+        type(step_candidate_t), intent(in) :: candidate
+        self%pending = candidate%pending
+        if (candidate%pending%general) then
+            self%x_work = candidate%x
+        else
+            self%reduced%x = candidate%x
+        end if
+        self%dq_work = candidate%dq
+        self%dp_work = candidate%dp
+    end subroutine restore_candidate
+
+    !> Say why a step failed, where the solver's code alone would mislead:
+    !! HOLOSYM_STEP_TOO_SMALL when h is below the resolution of the state
+    !! (`resolution_limit`); HOLOSYM_RANK_DEFICIENT_CONSTRAINTS when a singular Newton
+    !! matrix comes from constraints dependent at the start or at a node of the iterate;
+    !! HOLOSYM_STEP_TOO_LARGE when the equations at the constant guess overflow at h, or
+    !! (singular matrix) are far better conditioned at h/16 (`probe_step`). A singular
+    !! matrix with none of these causes keeps its code with the hint about N and G.
+    subroutine diagnose_failure(self, sys, q, p, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        type(holosym_status_t), intent(inout) :: status
+        character(len=:), allocatable :: message
+        real(wp) :: limit, ratio, smaller_ratio, probe_h, lower, upper
+        integer :: code, k
+
+        select case (status%code)
+        case (HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED)
+        case default
+            return
+        end select
+        limit = resolution_limit(self, sys, q, p)
+        if (h < limit) then
+            status%code = HOLOSYM_STEP_TOO_SMALL
+            status%message = step_label(self, h) // ": h is below the resolution of this " // &
+                "state: under about h = " // real_str(limit) // " the round-off of q " // &
+                "(epsilon |q|) divided by h exceeds Newton's stagnation level in the " // &
+                "momenta, so the step's equations cannot be solved; use h >= " // &
+                real_str(limit) // " (" // status%message // ")"
+            return
+        end if
+        if (status%code == HOLOSYM_SINGULAR_MATRIX) then
+            if (.not. rank_test(self, sys, q, message, dependence_threshold)) then
+                status%code = HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
+                status%message = step_label(self, h) // ": at the start of the step " // message
+                return
+            else if (len(self%dependent_nodes) > 0) then
+                status%code = HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
+                status%message = step_label(self, h) // ": within the step (" // &
+                    self%dependent_nodes // "); the constraints become dependent"
+                return
+            end if
+        end if
+        ! Too large: the step's equations at the constant guess overflow; or, for a
+        ! singular matrix, they are far worse conditioned at h (or the largest step below
+        ! it where they are regular) than at a sixteenth of it: the pivot ratio at the
+        ! constant guess falls like 1/h beyond the system's time scale, and rises with h
+        ! below it.
+        code = probe_step(self, sys, q, p, h, ratio)
+        if (code == HOLOSYM_NEWTON_DIVERGED) then
+            status%code = HOLOSYM_STEP_TOO_LARGE
+            status%message = step_label(self, h) // ": the step is too large: its " // &
+                "equations overflow working precision at the first guess; reduce h (" // &
+                status%message // ")"
+            return
+        end if
+        if (status%code == HOLOSYM_SINGULAR_MATRIX) then
+            ! A step size below h with a regular matrix at the guess: bisection in log h
+            ! between h and the resolution limit (beyond the system's time scale the
+            ! matrix is singular above some step size, regular below it).
+            probe_h = h
+            lower = max(limit, sqrt(tiny(1.0_wp)))
+            upper = h
+            do k = 1, 64
+                if (ratio > 0 .or. upper <= 16 * lower) exit
+                probe_h = sqrt(lower) * sqrt(upper)
+                code = probe_step(self, sys, q, p, probe_h, ratio)
+                if (ratio <= 0) upper = probe_h
+            end do
+            if (ratio > 0) then
+                code = probe_step(self, sys, q, p, probe_h / 16, smaller_ratio)
+                if (code /= HOLOSYM_NEWTON_DIVERGED .and. smaller_ratio > 0 .and. &
+                    smaller_ratio >= large_step_gain * ratio) then
+                    status%code = HOLOSYM_STEP_TOO_LARGE
+                    status%message = step_label(self, h) // ": the step is too large: " // &
+                        "the Newton matrix at the first guess has pivot ratio " // &
+                        real_str(ratio) // " at h = " // real_str(probe_h) // " and " // &
+                        real_str(smaller_ratio) // " at h/16 (at this h it is singular to " // &
+                        "working precision in the solve); reduce h (" // status%message // ")"
+                    return
+                end if
+            end if
+        end if
+        if (status%code == HOLOSYM_SINGULAR_MATRIX) then
+            if (self%scheme%order_m >= self%scheme%order_n + 2) then
+                status%message = status%message // "; M >= N + 2 is singular whenever " // &
+                    "H is degenerate along the surplus displacement modes (e.g. a " // &
+                    "symmetric potential): use N = M - 1"
+            else
+                status%message = status%message // "; N or G may be too small for M " // &
+                    "(N = M - 1 with G >= M works), or the constraints are nearly dependent"
+            end if
+        end if
+    end subroutine diagnose_failure
+
+    !> The smallest step size the state (q, p) resolves: the round-off of q, epsilon |q|,
+    !! makes the velocity z/h of a step uncertain by epsilon |q| / h, i.e. the momenta by
+    !! that times a mass |p| / |H_p|; Newton accepts corrections at its stagnation level
+    !! (relative to the state's size), so below
+    !! h = margin epsilon |q| (|p| / |H_p|) / (stagnation_level max(|q|, |p|)) a step may
+    !! fail, `resolution_margin` covering the conditioning of the step's equations.
+    function resolution_limit(self, sys, q, p) result(limit)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp) :: limit
+        call sys%dh_dp(q, p, self%hp_work)
+        limit = state_resolution(self, q, p, self%hp_work)
+    end function resolution_limit
+
+    !> `resolution_limit` from the velocity field hp = H_p(q, p); 0 when a value is not
+    !! finite.
+    pure function state_resolution(self, q, p, hp) result(limit)
+        class(constrained_integrator), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:), hp(:)
+        real(wp) :: limit
+        real(wp) :: scale, mass, velocity, level
+        limit = 0
+        if (.not. (all(is_finite(q)) .and. all(is_finite(p)) .and. all(is_finite(hp)))) return
+        scale = max(maxval(abs(q)), maxval(abs(p)))
+        if (.not. scale > 0) scale = 1
+        velocity = maxval(abs(hp))
+        mass = 1
+        if (velocity > 0 .and. maxval(abs(p)) > 0) mass = maxval(abs(p)) / velocity
+        level = max(stagnation_floor(self%newton), self%newton%tolerance)
+        limit = resolution_margin * epsilon(1.0_wp) * maxval(abs(q)) * mass / (level * scale)
+    end function state_resolution
+
+    !> One Newton iteration of the step of size h from (q, p) at the constant guess, on the
+    !! plain path (working-precision LU; real64 factors where only the reduced step exists):
+    !! HOLOSYM_NEWTON_DIVERGED when the equations overflow there, HOLOSYM_SINGULAR_MATRIX
+    !! when the Newton matrix is singular there, else HOLOSYM_SUCCESS; `pivot_ratio` the
+    !! smallest relative pivot of that matrix (0 when singular). Only the schemes' bound
+    !! step and the reduced step's kept factors change.
+    integer function probe_step(self, sys, q, p, h, pivot_ratio) result(code)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        real(wp), intent(out) :: pivot_ratio
+        type(newton_settings_t) :: settings
         type(newton_report_t) :: report
-        logical :: extrapolated
-        integer :: order_m, order_n, gauss_points, iterations, factorizations
+        type(holosym_status_t) :: local
+        type(reduced_report_t) :: reduced_report
+        real(wp), allocatable :: x(:)
+        real(wp) :: scale
+        settings = plain_settings(self%newton)
+        settings%max_iterations = 1
+        scale = max(maxval(abs(q)), maxval(abs(p)))
+        if (.not. scale > 0) scale = 1
+        if (self%general_ready) then
+            call apply_options(self, h, local)
+            call self%scheme%set_step(sys, q, p, h)
+            allocate (x(self%scheme%nx))
+            call self%scheme%constant_guess(x)
+            ! A workspace of its own: the working-precision LU, no kept factors touched.
+            call newton_solve(self%scheme, x, settings, scale, report, local)
+            pivot_ratio = report%pivot_ratio
+        else
+            call self%reduced%solve(sys, q, p, h, self%newton%tolerance, &
+                stagnation_floor(self%newton), 1, .false., self%q_end_work, self%p_end_work, &
+                reduced_report, local)
+            pivot_ratio = reduced_report%pivot_ratio
+        end if
+        select case (local%code)
+        case (HOLOSYM_NEWTON_DIVERGED, HOLOSYM_SINGULAR_MATRIX)
+            code = local%code
+        case default
+            code = HOLOSYM_SUCCESS
+        end select
+        if (code == HOLOSYM_SINGULAR_MATRIX .or. .not. is_finite(pivot_ratio)) pivot_ratio = 0
+    end function probe_step
+
+    !> Record, after a singular Newton matrix, whether the constraints are dependent at a
+    !! displacement node of the iterate where it happened (`dependent_nodes`).
+    subroutine record_dependent_nodes(self, sys, q, general)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:)
+        logical, intent(in) :: general !! the general scheme's iterate (else the reduced's)
+        character(len=:), allocatable :: message
+        integer :: i
+        if (sys%m == 0 .or. len(self%dependent_nodes) > 0) return
+        do i = 1, self%scheme%order_m
+            if (general) then
+                call self%scheme%node(i, self%q_end_work)
+            else
+                if (.not. self%reduced%have_singular_x) return
+                self%q_end_work = q + &
+                    self%reduced%singular_x(self%reduced%scheme%layout%z_col(:, i))
+            end if
+            if (.not. all(is_finite(self%q_end_work))) cycle
+            if (.not. rank_test(self, sys, self%q_end_work, message, &
+                                 dependence_threshold)) then
+                self%dependent_nodes = "at displacement node " // int_str(i) // " of " // &
+                    int_str(self%scheme%order_m) // " of the Newton iterate, " // message
+                return
+            end if
+        end do
+    end subroutine record_dependent_nodes
+
+    !> Solve the step by the general scheme (all unknowns, dense Newton), without accepting
+    !! it: the solution in x_work, the increments in dq_work, dp_work, its numbers in
+    !! `pending`. `extrapolation` allows the previous step's polynomials as first guess.
+    subroutine solve_general(self, sys, q, p, h, extrapolation, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        logical, intent(in) :: extrapolation
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: scale, end_velocity_residual
+        type(newton_report_t) :: report
+        logical :: extrapolated, from_extrapolation
+        integer :: iterations, factorizations
         integer(int64) :: residuals0, gradients0, hessians0, lowered0
 
         status%code = HOLOSYM_SUCCESS
@@ -568,14 +1138,15 @@ contains
         lowered0 = self%scheme%counters%lowered_residuals
         call self%scheme%set_step(sys, q, p, h)
         extrapolated = .false.
-        if (self%extrapolate) extrapolated = continues_last_step(self, q, p) .and. &
-            self%last_general
+        if (self%extrapolate .and. extrapolation) extrapolated = &
+            continues_last_step(self, q, p) .and. self%last_general
         call first_guess()
         ! Increments are compared with the size of the state, not with themselves.
         scale = max(maxval(abs(q)), maxval(abs(p)))
         if (scale <= 0) scale = 1
         iterations = 0
         factorizations = 0
+        end_velocity_residual = 0
         call solve_with_retries(self%newton)
         if (.not. status%ok() .and. status%code /= HOLOSYM_NONFINITE_VALUE .and. &
             fast_options(self)) then
@@ -592,40 +1163,18 @@ contains
         self%stats%newton_iterations = self%stats%newton_iterations + iterations
         self%stats%lu_factorizations = self%stats%lu_factorizations + factorizations
         self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + factorizations
+        call count_evaluations()
         if (.not. status%ok()) then
-            call count_evaluations()
-            call self%orders(order_m, order_n, gauss_points)
-            status%message = "step with (M, N, G) = (" // int_str(order_m) // ", " // &
-                int_str(order_n) // ", " // int_str(gauss_points) // "), h = " // real_str(h) // &
-                ": " // status%message
-            if (status%code == HOLOSYM_SINGULAR_MATRIX) then
-                if (order_m >= order_n + 2) then
-                    status%message = status%message // "; M >= N + 2 is singular whenever " // &
-                        "H is degenerate along the surplus displacement modes (e.g. a " // &
-                        "symmetric potential): use N = M - 1"
-                else
-                    status%message = status%message // "; N or G may be too small for M " // &
-                        "(N = M - 1 with G >= M works), or the constraints are nearly dependent"
-                end if
-            end if
+            status%message = step_label(self, h) // ": " // status%message
             return
         end if
-        call self%scheme%node_values(self%x_work, self%last_info%lambda, max_phi)
-        self%last_info%newton_iterations = iterations
-        self%last_info%constraint_residual = max_phi
-        self%last_info%pivot_ratio = report%pivot_ratio
-        self%last_info%lu_factorizations = factorizations
-        self%last_x = self%x_work
-        self%last_qa = q
-        self%last_pa = p
-        self%last_h = h
-        self%last_qb = q + self%dq_work
-        self%last_pb = p + self%dp_work
+        self%pending%general = .true.
+        self%pending%extrapolated = from_extrapolation
+        self%pending%iterations = iterations
+        self%pending%factorizations = factorizations
+        self%pending%pivot_ratio = report%pivot_ratio
         ! Hidden constraint at the step end, max |Phi(q_b) H_p(q_b, p_b)| (check_end_state).
-        self%last_info%velocity_residual = end_velocity_residual
-        self%have_last = .true.
-        self%stats%steps = self%stats%steps + 1
-        call count_evaluations()
+        self%pending%velocity = end_velocity_residual
 
     contains
 
@@ -641,14 +1190,15 @@ contains
             if (.not. status%ok() .and. extrapolated .and. &
                 status%code /= HOLOSYM_NONFINITE_VALUE) then
                 call self%scheme%constant_guess(self%x_work)
+                from_extrapolation = .false.
                 call attempt(settings)
             end if
             if (.not. status%ok()) return
             call self%scheme%increments(self%x_work, self%dq_work, self%dp_work, status)
             if (.not. status%ok()) return
             if (.not. (all_finite(self%dq_work) .and. all_finite(self%dp_work))) then
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, "step produced a non-finite " &
-                    // "state")
+                call set_status(status, HOLOSYM_NEWTON_DIVERGED, "step produced a " // &
+                    "non-finite state (overflow)")
                 return
             end if
             call check_end_state(status)
@@ -656,6 +1206,7 @@ contains
 
         !> x_work = the previous step's polynomials extrapolated, or the constant guess.
         subroutine first_guess()
+            from_extrapolation = extrapolated
             if (extrapolated) then
                 call self%scheme%extrapolated_guess(self%last_x, self%last_qa, self%last_pa, &
                                                     self%last_h, q, p, h, self%x_work)
@@ -671,6 +1222,8 @@ contains
                               self%workspace)
             iterations = iterations + report%iterations
             factorizations = factorizations + report%factorizations
+            if (status%code == HOLOSYM_SINGULAR_MATRIX) &
+                call record_dependent_nodes(self, sys, q, .true.)
         end subroutine attempt
 
         !> A Newton iteration that stopped far from a solution (e.g. at an absurd h, where
@@ -684,30 +1237,26 @@ contains
             self%q_end_work = q + self%dq_work
             self%p_end_work = p + self%dp_work
             call manifold_residuals(sys, self%q_end_work, self%p_end_work, position, &
-                                    velocity, scaled_position, scaled_velocity)
-            if (sys%m > 0) self%scheme%counters%gradients = self%scheme%counters%gradients + 1
+                                    velocity, scaled_position, scaled_velocity, self%hp_work)
+            self%scheme%counters%gradients = self%scheme%counters%gradients + 1
             end_velocity_residual = velocity
-            if (.not. (scaled_position <= end_tolerance(self) .and. &
-                       scaled_velocity <= end_tolerance(self))) then
-                call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton stopped at a " // &
-                    "point off the constraints (end state max|phi| = " // real_str(position) // &
-                    ", max|Phi H_p| = " // real_str(velocity) // ")")
-            end if
+            call end_state_status(position, velocity, scaled_position, scaled_velocity, &
+                                  end_tolerance(self), status)
         end subroutine check_end_state
 
-        !> Evaluations of this step from the scheme's counters.
+        !> Evaluations of this attempt from the scheme's counters.
         subroutine count_evaluations()
             integer(int64) :: residuals, gradients, hessians, lowered
             residuals = self%scheme%counters%residuals - residuals0
             gradients = self%scheme%counters%gradients - gradients0
             hessians = self%scheme%counters%hessians - hessians0
             lowered = self%scheme%counters%lowered_residuals - lowered0
-            self%last_info%lowered_residual_evaluations = int(lowered)
+            self%pending%lowered = int(lowered)
             self%stats%lowered_residual_evaluations = self%stats%lowered_residual_evaluations &
                 + lowered
-            self%last_info%residual_evaluations = int(residuals)
-            self%last_info%gradient_evaluations = int(gradients)
-            self%last_info%hessian_evaluations = int(hessians)
+            self%pending%residuals = int(residuals)
+            self%pending%gradients = int(gradients)
+            self%pending%hessians = int(hessians)
             self%stats%residual_evaluations = self%stats%residual_evaluations + residuals
             self%stats%gradient_evaluations = self%stats%gradient_evaluations + gradients
             self%stats%hessian_evaluations = self%stats%hessian_evaluations + hessians
@@ -715,21 +1264,42 @@ contains
 
     end subroutine solve_general
 
-    !> `solve_step` by the reduced step (momenta eliminated; `holosym_reduced_step`).
-    subroutine solve_reduced(self, sys, q, p, h, status)
+    !> The end-state test of a solved step: non-finite residuals (from the system's
+    !! constraint or dh_dp at the end state) fail with HOLOSYM_NONFINITE_VALUE, scaled
+    !! residuals above `end_state_tolerance` with HOLOSYM_NEWTON_NOT_CONVERGED.
+    subroutine end_state_status(position, velocity, scaled_position, scaled_velocity, &
+                                tolerance, status)
+        real(wp), intent(in) :: position, velocity, scaled_position, scaled_velocity
+        real(wp), intent(in) :: tolerance !! largest accepted scaled residual
+        type(holosym_status_t), intent(inout) :: status
+        if (.not. (is_finite(scaled_position) .and. is_finite(scaled_velocity))) then
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint, " // &
+                "constraint_jacobian or dh_dp returned NaN or Inf at the end state")
+        else if (scaled_position > tolerance .or. scaled_velocity > tolerance) then
+            call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton stopped at a " // &
+                "point off the constraints (end state max|phi| = " // real_str(position) // &
+                ", max|Phi H_p| = " // real_str(velocity) // ")")
+        end if
+    end subroutine end_state_status
+
+    !> Solve the step by the reduced step (momenta eliminated; `holosym_reduced_step`),
+    !! without accepting it: the solution in reduced%x, the increments in dq_work, dp_work,
+    !! its numbers in `pending`.
+    subroutine solve_reduced(self, sys, q, p, h, extrapolation, status)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
+        logical, intent(in) :: extrapolation
         type(holosym_status_t), intent(out) :: status
         type(reduced_report_t) :: report
-        real(wp) :: position, velocity, scaled_position, scaled_velocity, max_phi
-        integer :: gradients0, i
+        real(wp) :: position, velocity, scaled_position, scaled_velocity
+        integer :: gradients0
 
         gradients0 = self%reduced%scheme%gradients
         call self%reduced%solve(sys, q, p, h, self%newton%tolerance, &
             stagnation_floor(self%newton), self%newton%max_iterations, &
-            self%extrapolate .and. continues_last_step(self, q, p), self%dq_work, &
-            self%dp_work, report, status)
+            self%extrapolate .and. extrapolation .and. continues_last_step(self, q, p), &
+            self%dq_work, self%dp_work, report, status)
         self%stats%newton_iterations = self%stats%newton_iterations + report%iterations
         self%stats%lu_factorizations = self%stats%lu_factorizations + report%factorizations
         self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + report%factorizations
@@ -740,63 +1310,45 @@ contains
             (self%reduced%scheme%gradients - gradients0)
         if (status%ok()) then
             if (.not. (all_finite(self%dq_work) .and. all_finite(self%dp_work))) &
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, "step produced a " // &
-                "non-finite state")
+                call set_status(status, HOLOSYM_NEWTON_DIVERGED, "step produced a " // &
+                "non-finite state (overflow)")
         end if
         if (status%ok()) then
             self%q_end_work = q + self%dq_work
             self%p_end_work = p + self%dp_work
             call state_residuals(self, sys, self%q_end_work, self%p_end_work, position, &
-                                 velocity, scaled_position, scaled_velocity)
-            if (.not. (scaled_position <= end_tolerance(self) .and. &
-                       scaled_velocity <= end_tolerance(self))) then
-                call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton stopped at a " // &
-                    "point off the constraints (end state max|phi| = " // real_str(position) // &
-                    ", max|Phi H_p| = " // real_str(velocity) // ")")
-            end if
+                                 velocity, scaled_position, scaled_velocity, self%hp_work)
+            if (sys%m == 0) self%stats%gradient_evaluations = &
+                self%stats%gradient_evaluations + 1
+            call end_state_status(position, velocity, scaled_position, scaled_velocity, &
+                                  end_tolerance(self), status)
         end if
         if (.not. status%ok()) then
-            status%message = "reduced step with (M, N, G) = (" // &
-                int_str(self%scheme%order_m) // ", " // int_str(self%scheme%order_n) // ", " // &
-                int_str(self%scheme%gauss_points) // "), h = " // real_str(h) // ": " // &
-                status%message
+            if (status%code == HOLOSYM_SINGULAR_MATRIX) &
+                call record_dependent_nodes(self, sys, q, .false.)
+            status%message = "reduced " // step_label(self, h) // ": " // status%message
             self%have_last = .false.
             return
         end if
-        call self%reduced%scheme%multipliers(self%reduced%last_x, h, self%last_info%lambda)
-        max_phi = 0
-        if (sys%m > 0) then
-            do i = 0, self%scheme%order_m
-                self%p_end_work = q
-                if (i > 0) self%p_end_work = q + &
-                    self%reduced%last_x(self%reduced%scheme%layout%z_col(:, i))
-                call sys%constraint(self%p_end_work, self%reduced%scheme%phi_work)
-                max_phi = max(max_phi, maxval(abs(self%reduced%scheme%phi_work)))
-            end do
-        end if
-        self%last_info%newton_iterations = report%iterations
-        self%last_info%constraint_residual = max_phi
-        self%last_info%velocity_residual = velocity
-        self%last_info%pivot_ratio = report%pivot_ratio
-        self%last_info%lu_factorizations = report%factorizations
-        self%last_info%residual_evaluations = report%residuals
-        self%last_info%lowered_residual_evaluations = report%lowered_residuals
-        self%last_info%gradient_evaluations = self%reduced%scheme%gradients - gradients0
-        self%last_info%hessian_evaluations = 0
-        self%last_qa = q
-        self%last_pa = p
-        self%last_h = h
-        self%last_qb = q + self%dq_work
-        self%last_pb = p + self%dp_work
-        self%have_last = .true.
-        self%stats%steps = self%stats%steps + 1
+        self%pending%general = .false.
+        self%pending%extrapolated = self%reduced%extrapolated
+        self%pending%iterations = report%iterations
+        self%pending%pivot_ratio = report%pivot_ratio
+        self%pending%factorizations = report%factorizations
+        self%pending%residuals = report%residuals
+        self%pending%lowered = report%lowered_residuals
+        self%pending%gradients = self%reduced%scheme%gradients - gradients0
+        self%pending%hessians = 0
+        self%pending%velocity = velocity
     end subroutine solve_reduced
 
     !> Advance (q, p) by one step of size h. On failure q and p are unchanged.
     !! Codes: HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH,
-    !! HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_ARGUMENT (also an unknown option value),
+    !! HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_ARGUMENT (also a setting out of range),
     !! HOLOSYM_OFF_MANIFOLD, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_SINGULAR_MATRIX,
-    !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE.
+    !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE
+    !! (a procedure of the system returned NaN or Inf), HOLOSYM_STEP_TOO_LARGE,
+    !! HOLOSYM_STEP_TOO_SMALL (see docs/status-codes.md).
     subroutine integrator_step(self, sys, q, p, h, info, status)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in), target :: sys !! the system
@@ -916,7 +1468,10 @@ contains
         type(holosym_status_t), intent(out), optional :: status !! outcome
         if (.not. self%have_last) then
             call set_status(status, HOLOSYM_NOT_INITIALIZED, "dense output needs a completed step")
-        else if (.not. (tau >= 0 .and. tau <= 1)) then
+        else if (.not. is_finite(tau)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "tau must be in [0, 1]; got " // &
+                real_str(tau))
+        else if (tau < 0 .or. tau > 1) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "tau must be in [0, 1]; got " // &
                 real_str(tau))
         else if (size(q) /= self%scheme%n .or. size(p) /= self%scheme%n .or. &

@@ -19,6 +19,12 @@
 !! With `interval` > 0 the rows are at the multiples of `interval` instead, from the step's
 !! dense output (`step_dense_output`) between step ends; such a row's residuals are those
 !! of the interpolated state, which meets the constraints only at the displacement nodes.
+!!
+!! A file opened by the writer (`file=`) is written through the C library's streams
+!! (`holosym_text_file`): a row that does not reach it (a full disk or device, a
+!! file-size limit) stops the run and `close` reports it, which Fortran units do not
+!! guarantee (gfortran 12 reports nothing, LLVM flang stops the program). With `unit=`
+!! the caller's unit is written as it is.
 module holosym_observers
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
@@ -30,6 +36,7 @@ module holosym_observers
     use holosym_problem, only: constrained_hamiltonian
     use holosym_manifold, only: manifold_residuals
     use holosym_integrator, only: step_observer, step_info_t
+    use holosym_text_file, only: text_file_t
     implicit none
     private
 
@@ -80,6 +87,8 @@ module holosym_observers
         integer :: rows = 0
         integer, private :: unit = -1
         logical, private :: owns_unit = .false.
+        !> The file opened by `open` (when `file=` was given).
+        type(text_file_t), private :: file
         logical, private :: opened = .false.
         character(len=16), private :: real_format = ""
         integer, private :: every = 1
@@ -202,19 +211,25 @@ contains
         integer, intent(in) :: n !! number of coordinates
         integer, intent(in) :: m !! number of constraints
         character(len=:), allocatable :: header !! the header line
-        integer :: i
-        header = "t"
-        do i = 1, n
-            header = header // ",q" // int_str(i)
+        character(len=:), allocatable :: buffer, piece
+        integer :: i, used
+        ! Filled in place (appending name by name copies the line once per name).
+        allocate (character(len=(2 * max(n, 0) + max(m, 0)) * 18 + 80) :: buffer)
+        buffer(1:1) = "t"
+        used = 1
+        do i = 1, 2 * n + m
+            if (i <= n) then
+                piece = ",q" // int_str(i)
+            else if (i <= 2 * n) then
+                piece = ",p" // int_str(i - n)
+            else
+                piece = ",lambda" // int_str(i - 2 * n)
+            end if
+            buffer(used + 1:used + len(piece)) = piece
+            used = used + len(piece)
         end do
-        do i = 1, n
-            header = header // ",p" // int_str(i)
-        end do
-        do i = 1, m
-            header = header // ",lambda" // int_str(i)
-        end do
-        header = header // ",H,energy_error,constraint_residual,velocity_residual," // &
-            "newton_iterations"
+        header = buffer(:used) // ",H,energy_error,constraint_residual,velocity_residual," &
+            // "newton_iterations"
     end function trajectory_header
 
     !> Open the writer for a run of `sys` from (q, p): the CSV goes to `file` (replaced) or
@@ -241,7 +256,9 @@ contains
         type(holosym_status_t) :: local
         type(energy_monitor) :: monitor
         character(len=256) :: io_message
+        type(text_file_t) :: new_file
         integer :: chosen_digits, chosen_every, new_unit, ios
+        logical :: closed
         real(wp) :: chosen_interval, t0
 
         chosen_digits = long_digits
@@ -271,32 +288,40 @@ contains
             call monitor%start(sys, q, p, local)
         end if
         if (local%ok()) then
+            new_unit = -1
             if (present(file)) then
-                open (newunit=new_unit, file=file, status="replace", action="write", &
-                      iostat=ios, iomsg=io_message)
-                if (ios /= 0) call set_status(local, HOLOSYM_INVALID_ARGUMENT, &
-                    "cannot open '" // file // "': " // trim(io_message))
+                if (.not. new_file%open(file, "replace")) call set_status(local, &
+                    HOLOSYM_INVALID_ARGUMENT, new_file%failure)
             else
                 new_unit = unit
             end if
         end if
         if (local%ok()) then
-            write (new_unit, '(a)', iostat=ios, iomsg=io_message) trajectory_header(sys%n, sys%m)
-            if (ios /= 0) then
-                call set_status(local, HOLOSYM_INVALID_ARGUMENT, "cannot write the header: " &
-                    // trim(io_message))
-                if (present(file)) close (new_unit, status="delete", iostat=ios)
+            if (present(file)) then
+                call new_file%line(trajectory_header(sys%n, sys%m))
+                call new_file%flush()
+                if (new_file%failed()) then
+                    call set_status(local, HOLOSYM_INVALID_ARGUMENT, "cannot write the " // &
+                        "header: " // new_file%failure)
+                    closed = new_file%close()
+                end if
+            else
+                write (new_unit, '(a)', iostat=ios, iomsg=io_message) &
+                    trajectory_header(sys%n, sys%m)
+                if (ios /= 0) call set_status(local, HOLOSYM_INVALID_ARGUMENT, &
+                    "cannot write the header: " // trim(io_message))
             end if
         end if
         if (.not. local%ok()) then
             call set_status(status, local%code, local%message)
             return
         end if
-        if (self%opened .and. self%owns_unit) close (self%unit, iostat=ios)
+        if (self%opened .and. self%owns_unit) closed = self%file%close()
         self%monitor = monitor
         self%rows = 0
         self%unit = new_unit
         self%owns_unit = present(file)
+        if (present(file)) self%file = new_file
         self%opened = .true.
         if (chosen_digits == short_digits) then
             self%real_format = '(es25.16e4)'
@@ -392,8 +417,8 @@ contains
 
     !> Finish the CSV: the start row when no step was observed (multipliers NaN), the last
     !! observed step's row when `every` skipped it; close a file opened by `open`.
-    !! Codes: HOLOSYM_NOT_INITIALIZED (not opened), HOLOSYM_USER_ABORT (a row could not be
-    !! written; the message has the I/O error).
+    !! Codes: HOLOSYM_NOT_INITIALIZED (not opened), HOLOSYM_USER_ABORT (a row did not
+    !! reach the file: a full disk or device, a file-size limit; the message says which).
     subroutine writer_close(self, status)
         class(trajectory_writer), intent(inout) :: self
         type(holosym_status_t), intent(out), optional :: status !! outcome
@@ -416,8 +441,14 @@ contains
                 self%last_velocity, self%last_iterations)
             self%pending = .false.
         end if
-        flush (self%unit, iostat=ios)
-        if (self%owns_unit) close (self%unit, iostat=ios)
+        if (self%owns_unit) then
+            if (.not. self%file%close() .and. self%io_status == 0) then
+                self%io_status = -1
+                self%io_message = self%file%failure
+            end if
+        else
+            flush (self%unit, iostat=ios)
+        end if
         self%opened = .false.
         if (self%io_status /= 0) then
             call set_status(status, HOLOSYM_USER_ABORT, "writing the trajectory failed " // &
@@ -467,27 +498,40 @@ contains
         real(wp) :: energy_error
         character(len=:), allocatable :: line
         character(len=256) :: io_message
-        integer :: i, ios
-        line = field(t)
+        integer :: i, ios, used
+        ! Filled in place (appending field by field copies the line once per field).
+        allocate (character(len=(size(q) + size(p) + size(lambda) + 6) * 50) :: line)
+        used = 0
+        call put(field(t))
         do i = 1, size(q)
-            line = line // "," // field(q(i))
+            call put("," // field(q(i)))
         end do
         do i = 1, size(p)
-            line = line // "," // field(p(i))
+            call put("," // field(p(i)))
         end do
         do i = 1, size(lambda)
-            line = line // "," // field(lambda(i))
+            call put("," // field(lambda(i)))
         end do
         energy_error = (energy - self%monitor%initial_energy) / self%monitor%energy_scale
         if (present(start_row)) energy_error = 0
-        line = line // "," // field(energy) // "," // field(energy_error) // "," // &
-            field(position) // "," // field(velocity) // "," // int_str(iterations)
-        write (self%unit, '(a)', iostat=ios, iomsg=io_message) line
-        if (ios /= 0) then
-            self%io_status = ios
-            self%io_message = trim(io_message)
+        call put("," // field(energy) // "," // field(energy_error) // "," // &
+            field(position) // "," // field(velocity) // "," // int_str(iterations))
+        if (self%owns_unit) then
+            call self%file%line(line(:used))
+            if (self%file%failed()) then
+                self%io_status = -1
+                self%io_message = self%file%failure
+            else
+                self%rows = self%rows + 1
+            end if
         else
-            self%rows = self%rows + 1
+            write (self%unit, '(a)', iostat=ios, iomsg=io_message) line(:used)
+            if (ios /= 0) then
+                self%io_status = ios
+                self%io_message = trim(io_message)
+            else
+                self%rows = self%rows + 1
+            end if
         end if
     contains
         function field(value) result(text)
@@ -497,6 +541,11 @@ contains
             write (buffer, self%real_format) value
             text = trim(adjustl(buffer))
         end function field
+        subroutine put(text)
+            character(len=*), intent(in) :: text
+            line(used + 1:used + len(text)) = text
+            used = used + len(text)
+        end subroutine put
     end subroutine write_row
 
 end module holosym_observers

@@ -2,10 +2,12 @@
 !! The constraint manifold {phi(q) = 0, Phi(q) H_p(q, p) = 0}: residuals of a state, scaled
 !! so that a tolerance tied to epsilon means "at round-off level", and the rank test of Phi.
 module holosym_manifold
+    use, intrinsic :: iso_fortran_env, only: int64
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
     use holosym_problem, only: constrained_hamiltonian
     use holosym_linalg, only: lu_factor
-    use holosym_status, only: int_str, is_finite
+    use holosym_status, only: int_str, real_str, is_finite
     implicit none
     private
 
@@ -15,13 +17,22 @@ module holosym_manifold
     !> Default tolerance on the scaled residuals: 2**10 epsilon, room for the round-off of
     !! evaluating phi and Phi H_p with a few hundred operations.
     real(wp), parameter, public :: manifold_tolerance_default = 1024 * epsilon(1.0_wp)
+    !> Entries of Phi beyond which `manifold_residuals` takes the system's declared sparsity
+    !! (when it has one) instead of forming the m x n matrix.
+    integer(int64), parameter :: dense_entries_limit = 65536
 
 contains
 
     !> Residuals of a state: `position = max|phi(q)|`, `velocity = max|Phi(q) H_p(q,p)|`,
     !! and the same divided by their round-off scales, 1 + |q| |Phi_l| for phi_l and
-    !! 1 + sum_i |Phi_li| |H_p,i| for the hidden constraint l.
-    subroutine manifold_residuals(sys, q, p, position, velocity, scaled_position, scaled_velocity)
+    !! 1 + sum_i |Phi_li| |H_p,i| for the hidden constraint l. All are NaN when the system
+    !! returns a NaN or infinite value, or when Phi is too large to form (m n entries
+    !! beyond the default integer) and the system declares no sparsity. A system with more
+    !! than `dense_entries_limit` entries of Phi and a declared sparsity is evaluated on
+    !! its pattern (`sparse_manifold_residuals`): a chain of 10^5 links needs no
+    !! 10^5 x 2 10^5 matrix.
+    subroutine manifold_residuals(sys, q, p, position, velocity, scaled_position, &
+                                  scaled_velocity, velocity_field)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         real(wp), intent(in) :: q(:)  !! coordinates (n)
         real(wp), intent(in) :: p(:)  !! momenta (n)
@@ -29,17 +40,45 @@ contains
         real(wp), intent(out) :: velocity  !! max |(Phi(q) H_p(q,p))_l|
         real(wp), intent(out), optional :: scaled_position !! max |phi_l| / scale_l
         real(wp), intent(out), optional :: scaled_velocity !! max |(Phi H_p)_l| / scale_l
-        real(wp) :: phi(sys%m), jac(sys%m, sys%n), hp(sys%n), hidden(sys%m)
-        integer :: l
+        real(wp), intent(out), optional :: velocity_field(:) !! H_p(q, p) (n), also for m = 0
+        real(wp) :: phi(sys%m), hp(sys%n), hidden(sys%m), sparse_position, sparse_velocity
+        real(wp), allocatable :: jac(:, :)
+        integer, allocatable :: rows(:), columns(:)
+        integer :: l, ios
 
         position = 0
         velocity = 0
         if (present(scaled_position)) scaled_position = 0
         if (present(scaled_velocity)) scaled_velocity = 0
-        if (sys%m == 0) return
+        if (sys%m == 0) then
+            if (present(velocity_field)) call sys%dh_dp(q, p, velocity_field)
+            return
+        end if
+        if (int(sys%m, int64) * sys%n > dense_entries_limit) then
+            call sys%constraint_sparsity(rows, columns)
+            if (valid_pattern(rows, columns, sys%m, sys%n)) then
+                call sparse_manifold_residuals(sys, rows, columns, q, p, position, velocity, &
+                    sparse_position, sparse_velocity, velocity_field)
+                if (present(scaled_position)) scaled_position = sparse_position
+                if (present(scaled_velocity)) scaled_velocity = sparse_velocity
+                return
+            end if
+        end if
+        ios = 1
+        if (int(sys%m, int64) * sys%n <= huge(0)) allocate (jac(sys%m, sys%n), stat=ios)
+        if (ios /= 0) then
+            if (present(velocity_field)) call sys%dh_dp(q, p, velocity_field)
+            call not_finite(position, velocity, scaled_position, scaled_velocity)
+            return
+        end if
         call sys%constraint(q, phi)
         call sys%constraint_jacobian(q, jac)
         call sys%dh_dp(q, p, hp)
+        if (present(velocity_field)) velocity_field = hp
+        if (.not. (all(is_finite(phi)) .and. all(is_finite(jac)) .and. all(is_finite(hp)))) then
+            call not_finite(position, velocity, scaled_position, scaled_velocity)
+            return
+        end if
         hidden = matmul(jac, hp)
         position = maxval(abs(phi))
         velocity = maxval(abs(hidden))
@@ -51,11 +90,21 @@ contains
         end do
     end subroutine manifold_residuals
 
+    !> Whether a declared pattern of Phi is one to use: entries in range, fewer than m n.
+    pure logical function valid_pattern(rows, columns, m, n) result(valid)
+        integer, intent(in) :: rows(:), columns(:) !! the pattern
+        integer, intent(in) :: m, n                !! the shape of Phi
+        valid = .false.
+        if (size(rows) /= size(columns) .or. size(rows) == 0) return
+        if (int(size(rows), int64) >= int(m, int64) * n) return
+        valid = all(rows >= 1 .and. rows <= m) .and. all(columns >= 1 .and. columns <= n)
+    end function valid_pattern
+
     !> `manifold_residuals` for a system with a sparse constraint Jacobian: Phi from
     !! `constraint_jacobian_values` at the pattern (rows, columns) of `constraint_sparsity`
     !! (no m x n matrix is formed). Same results.
     subroutine sparse_manifold_residuals(sys, rows, columns, q, p, position, velocity, &
-                                         scaled_position, scaled_velocity)
+                                         scaled_position, scaled_velocity, velocity_field)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         integer, intent(in) :: rows(:)     !! pattern of Phi: constraint of each entry
         integer, intent(in) :: columns(:)  !! pattern of Phi: coordinate of each entry
@@ -65,18 +114,28 @@ contains
         real(wp), intent(out) :: velocity  !! max |(Phi(q) H_p(q,p))_l|
         real(wp), intent(out) :: scaled_position !! max |phi_l| / scale_l
         real(wp), intent(out) :: scaled_velocity !! max |(Phi H_p)_l| / scale_l
+        real(wp), intent(out), optional :: velocity_field(:) !! H_p(q, p) (n), also for m = 0
         real(wp), allocatable :: phi(:), values(:), hp(:), hidden(:), row_max(:), row_sum(:)
         integer :: e, l
         position = 0
         velocity = 0
         scaled_position = 0
         scaled_velocity = 0
-        if (sys%m == 0) return
+        if (sys%m == 0) then
+            if (present(velocity_field)) call sys%dh_dp(q, p, velocity_field)
+            return
+        end if
         allocate (phi(sys%m), values(size(rows)), hp(sys%n), hidden(sys%m), row_max(sys%m), &
                   row_sum(sys%m))
         call sys%constraint(q, phi)
         call sys%constraint_jacobian_values(q, rows, columns, values)
         call sys%dh_dp(q, p, hp)
+        if (present(velocity_field)) velocity_field = hp
+        if (.not. (all(is_finite(phi)) .and. all(is_finite(values)) .and. &
+                   all(is_finite(hp)))) then
+            call not_finite(position, velocity, scaled_position, scaled_velocity)
+            return
+        end if
         hidden = 0
         row_max = 0
         row_sum = 0
@@ -92,11 +151,22 @@ contains
         scaled_velocity = maxval(abs(hidden) / (1 + row_sum))
     end subroutine sparse_manifold_residuals
 
+    !> All residuals NaN: the system returned a NaN or infinite value (the callers report
+    !! it); computing with it would raise IEEE exceptions (0 * Inf).
+    subroutine not_finite(position, velocity, scaled_position, scaled_velocity)
+        real(wp), intent(out) :: position, velocity
+        real(wp), intent(out), optional :: scaled_position, scaled_velocity
+        position = ieee_value(position, ieee_quiet_nan)
+        velocity = position
+        if (present(scaled_position)) scaled_position = position
+        if (present(scaled_velocity)) scaled_velocity = position
+    end subroutine not_finite
+
     !> `full_rank_constraints` for a sparse Phi: the Cholesky factorisation of Phi Phi^T in
     !! band storage, constraints taken in `order` (for which the Gram matrix should be
     !! banded); a pivot below m epsilon times the largest diagonal entry means rank
     !! deficient, as for the dense test. Work and memory grow like m times the band squared.
-    function sparse_full_rank_constraints(sys, rows, columns, order, q, message) &
+    function sparse_full_rank_constraints(sys, rows, columns, order, q, message, threshold) &
         result(full_rank)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         integer, intent(in) :: rows(:)     !! pattern of Phi: constraint of each entry
@@ -104,11 +174,13 @@ contains
         integer, intent(in) :: order(:)    !! position of each constraint in the factorisation
         real(wp), intent(in) :: q(:)       !! coordinates (n)
         character(len=:), allocatable, intent(out) :: message !! why not, or empty
+        !> Relative pivot threshold of Phi Phi^T (default m epsilon).
+        real(wp), intent(in), optional :: threshold
         logical :: full_rank
         real(wp), allocatable :: values(:), band(:, :)
         integer, allocatable :: start(:), entry(:), fill(:)
         integer :: e, f, c, a, b, width, i, j, k
-        real(wp) :: largest, threshold
+        real(wp) :: largest, relative, cutoff
         message = ""
         full_rank = .true.
         if (sys%m == 0) return
@@ -153,13 +225,16 @@ contains
             end do
         end do
         largest = maxval(band(1, :))
-        threshold = sys%m * epsilon(1.0_wp) * largest
+        relative = sys%m * epsilon(1.0_wp)
+        if (present(threshold)) relative = threshold
+        cutoff = relative * largest
         do j = 1, sys%m
-            if (.not. band(1, j) > threshold) then
+            if (.not. band(1, j) > cutoff) then
                 full_rank = .false.
                 message = "the constraint Jacobian Phi is rank deficient at q: a constraint " &
                     // "is (nearly) a combination of the others (pivot " // int_str(j) // &
-                    " of " // int_str(sys%m) // " of Phi Phi^T below m epsilon)"
+                    " of " // int_str(sys%m) // " of Phi Phi^T below " // &
+                    real_str(relative) // " relative)"
                 return
             end if
             band(1, j) = sqrt(band(1, j))
@@ -178,12 +253,14 @@ contains
     !> True when Phi(q) has full row rank m: the LU of Phi Phi^T (m x m) finds no pivot
     !! below m epsilon relative, i.e. no singular value of Phi below ~sqrt(m epsilon) relative.
     !! Otherwise `message` says which constraint is (nearly) dependent on the others.
-    function full_rank_constraints(sys, q, message) result(full_rank)
+    function full_rank_constraints(sys, q, message, threshold) result(full_rank)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         real(wp), intent(in) :: q(:) !! coordinates (n)
         character(len=:), allocatable, intent(out) :: message !! why not, or empty
+        !> Relative pivot threshold of Phi Phi^T (default m epsilon).
+        real(wp), intent(in), optional :: threshold
         logical :: full_rank
-        real(wp) :: jac(sys%m, sys%n), gram(sys%m, sys%m)
+        real(wp) :: jac(sys%m, sys%n), gram(sys%m, sys%m), relative
         integer :: pivots(sys%m), info
         message = ""
         full_rank = .true.
@@ -191,11 +268,14 @@ contains
         call sys%constraint_jacobian(q, jac)
         if (.not. all(is_finite(jac))) return  ! reported as non-finite by the caller's checks
         gram = matmul(jac, transpose(jac))
-        call lu_factor(gram, pivots, info)
+        relative = sys%m * epsilon(1.0_wp)
+        if (present(threshold)) relative = threshold
+        call lu_factor(gram, pivots, info, relative)
         full_rank = info == 0
         if (.not. full_rank) message = "the constraint Jacobian Phi is rank deficient at q: " &
             // "constraint " // int_str(info) // " of " // int_str(sys%m) // " is (nearly) " // &
-            "a combination of the others (pivot of Phi Phi^T below m epsilon)"
+            "a combination of the others (pivot of Phi Phi^T below " // real_str(relative) // &
+            " relative)"
     end function full_rank_constraints
 
 end module holosym_manifold

@@ -22,6 +22,7 @@
 !! With both patterns declared, the step's linear algebra is banded (after a reordering
 !! of the unknowns) and its cost grows linearly with the size of a chain-like system.
 module holosym_problem
+    use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp
     implicit none
     private
@@ -123,12 +124,20 @@ contains
     !> Default `constraint_sparsity`: every entry of Phi may be nonzero. An override
     !! returns the (row, column) pairs of the entries that may be nonzero, row = constraint
     !! l in 1..m, column = coordinate i in 1..n, each pair once, in the order in which
-    !! `constraint_jacobian_values` returns their values.
+    !! `constraint_jacobian_values` returns their values. When n m does not fit the default
+    !! integer the default returns the invalid pattern ([0], [0]), which `init` reports.
     subroutine dense_constraint_sparsity(self, rows, columns)
         class(constrained_hamiltonian), intent(in) :: self !! the system
         integer, allocatable, intent(out) :: rows(:)    !! constraint index of each entry
         integer, allocatable, intent(out) :: columns(:) !! coordinate index of each entry
         integer :: l, i
+        if (int(self%m, int64) * self%n > huge(0)) then
+            ! Too many entries for the default integer: an invalid pattern, which the
+            ! caller reports (declare the sparsity instead).
+            rows = [0]
+            columns = [0]
+            return
+        end if
         allocate (rows(self%m * self%n), columns(self%m * self%n))
         do i = 1, self%n
             do l = 1, self%m
@@ -174,12 +183,20 @@ contains
     !> Default `potential_sparsity`: every second derivative of U may be nonzero. An
     !! override returns the pairs (i, k) with d2U/dq_i dq_k possibly nonzero (either
     !! triangle or both; the diagonal may be left out). A potential linear in q
-    !! (uniform gravity) returns two empty arrays.
+    !! (uniform gravity) returns two empty arrays. When n^2 does not fit the default integer
+    !! the default returns the invalid pattern ([0], [0]), which `init` reports.
     subroutine dense_potential_sparsity(self, rows, columns)
         class(constrained_hamiltonian), intent(in) :: self !! the system
         integer, allocatable, intent(out) :: rows(:)    !! first coordinate of each pair
         integer, allocatable, intent(out) :: columns(:) !! second coordinate of each pair
         integer :: i, k
+        if (int(self%n, int64)**2 > huge(0)) then
+            ! Too many entries for the default integer: an invalid pattern, which the
+            ! caller reports (declare the sparsity instead).
+            rows = [0]
+            columns = [0]
+            return
+        end if
         allocate (rows(self%n**2), columns(self%n**2))
         do k = 1, self%n
             do i = 1, self%n

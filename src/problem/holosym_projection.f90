@@ -102,7 +102,11 @@ contains
         else if (.not. (all(is_finite(q)) .and. all(is_finite(p)))) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "q or p contains NaN or Inf")
             return
-        else if (.not. (is_finite(accept) .and. accept > 0)) then
+        else if (.not. is_finite(accept)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "tolerance must be positive " // &
+                "and finite; got " // real_str(accept))
+            return
+        else if (accept <= 0) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "tolerance must be positive " // &
                 "and finite; got " // real_str(accept))
             return

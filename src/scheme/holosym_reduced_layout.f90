@@ -14,8 +14,9 @@
 !! mu_0[l]..mu_M[l] and the rows phi_l(q_1)..phi_l(q_M), (Phi M^-1 D_M)_l. For a chain
 !! the Newton matrix is then banded with a band independent of the chain's length.
 module holosym_reduced_layout
+    use, intrinsic :: iso_fortran_env, only: int64
     use holosym_status, only: holosym_status_t, set_status, int_str, HOLOSYM_SUCCESS, &
-        HOLOSYM_INVALID_ARGUMENT
+        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_INVALID_DIMENSION
     implicit none
     private
 
@@ -65,8 +66,10 @@ module holosym_reduced_layout
 
 contains
 
-    !> Build the layout for M and the sparsity the system declares. Code
-    !! HOLOSYM_INVALID_ARGUMENT when a declared pattern has an index out of range.
+    !> Build the layout for M and the sparsity the system declares. Codes:
+    !! HOLOSYM_INVALID_ARGUMENT when a declared pattern has an index out of range,
+    !! HOLOSYM_INVALID_DIMENSION when the unknowns or the coupling graph have more entries
+    !! than the default integer holds.
     subroutine layout_build(self, order_m, n, m, phi_rows, phi_cols, hess_rows, hess_cols, &
                             status)
         class(reduced_layout_t), intent(out) :: self
@@ -79,29 +82,46 @@ contains
         integer, intent(in) :: hess_cols(:)  !! pattern of the Hessian of U
         type(holosym_status_t), intent(out) :: status !! outcome
         integer, allocatable :: order(:)
+        character(len=:), allocatable :: hint
+        integer(int64) :: unknowns
 
+        ! The default (dense) patterns have n m and n^2 entries.
+        hint = ""
+        if (int(n, int64) * m > huge(0) .or. int(n, int64)**2 > huge(0)) hint = &
+            " (a dense default pattern of n m or n^2 entries does not fit the default " // &
+            "integer for n = " // int_str(n) // ": declare the sparsity)"
         if (any(phi_rows < 1) .or. any(phi_rows > m) .or. any(phi_cols < 1) .or. &
             any(phi_cols > n) .or. size(phi_rows) /= size(phi_cols)) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "constraint_sparsity returned " &
                 // "an index out of range (rows 1.." // int_str(m) // ", columns 1.." // &
-                int_str(n) // ") or arrays of different sizes")
+                int_str(n) // ") or arrays of different sizes" // hint)
             return
         end if
         if (any(hess_rows < 1) .or. any(hess_rows > n) .or. any(hess_cols < 1) .or. &
             any(hess_cols > n) .or. size(hess_rows) /= size(hess_cols)) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "potential_sparsity returned " &
-                // "an index out of range (1.." // int_str(n) // ") or arrays of different sizes")
+                // "an index out of range (1.." // int_str(n) // ") or arrays of different " // &
+                "sizes" // hint)
+            return
+        end if
+        unknowns = int(order_m, int64) * n + (int(order_m, int64) + 1) * m
+        if (unknowns > huge(0)) then
+            call set_status(status, HOLOSYM_INVALID_DIMENSION, "the reduced step of n = " // &
+                int_str(n) // ", m = " // int_str(m) // " with M = " // int_str(order_m) // &
+                " has more unknowns than the default integer holds")
             return
         end if
         self%order_m = order_m
         self%n = n
         self%m = m
-        self%nx = order_m * n + (order_m + 1) * m
+        self%nx = int(unknowns)
         self%phi_rows = phi_rows
         self%phi_cols = phi_cols
-        self%sparse = size(phi_rows) < n * m .or. size(hess_rows) < n * n
+        self%sparse = size(phi_rows, kind=int64) < int(n, int64) * m .or. &
+            size(hess_rows, kind=int64) < int(n, int64)**2
         call incidence(self)
-        call coupling(self, hess_rows, hess_cols)
+        call coupling(self, hess_rows, hess_cols, status)
+        if (.not. status%ok()) return
         order = cuthill_mckee(self%near_start, self%near)
         call place(self, order)
         call newton_pattern(self)
@@ -123,16 +143,26 @@ contains
 
     !> Coordinates coupled to each coordinate: itself, the Hessian's pattern (both ways)
     !! and the coordinates sharing a constraint.
-    subroutine coupling(self, hess_rows, hess_cols)
+    subroutine coupling(self, hess_rows, hess_cols, status)
         type(reduced_layout_t), intent(inout) :: self
         integer, intent(in) :: hess_rows(:), hess_cols(:)
+        type(holosym_status_t), intent(out) :: status
         integer, allocatable :: from(:), to(:)
         integer :: c, l, a, b, count
+        integer(int64) :: pairs
 
-        count = self%n + 2 * size(hess_rows)
+        pairs = self%n + 2 * size(hess_rows, kind=int64)
         do l = 1, self%m
-            count = count + (self%coords_start(l + 1) - self%coords_start(l))**2
+            pairs = pairs + int(self%coords_start(l + 1) - self%coords_start(l), int64)**2
         end do
+        if (pairs > huge(0)) then
+            call set_status(status, HOLOSYM_INVALID_DIMENSION, "the coupling graph of the " // &
+                "coordinates (declared Hessian and constraint patterns) has more entries " // &
+                "than the default integer holds")
+            return
+        end if
+        call set_status(status, HOLOSYM_SUCCESS, "")
+        count = int(pairs)
         allocate (from(count), to(count))
         count = 0
         do c = 1, self%n
@@ -361,11 +391,14 @@ contains
         integer, intent(inout) :: count
         integer, intent(in) :: r, c
         integer, allocatable :: grown(:)
+        integer :: capacity
         if (count == size(from)) then
-            allocate (grown(2 * size(from) + 16))
+            ! Doubling, computed without overflowing the default integer.
+            capacity = int(min(2 * size(from, kind=int64) + 16, int(huge(0), int64)))
+            allocate (grown(capacity))
             grown(1:count) = from(1:count)
             call move_alloc(grown, from)
-            allocate (grown(2 * size(to) + 16))
+            allocate (grown(capacity))
             grown(1:count) = to(1:count)
             call move_alloc(grown, to)
         end if

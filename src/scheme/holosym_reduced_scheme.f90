@@ -25,11 +25,13 @@ module holosym_reduced_scheme
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp
     use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
-        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE
+        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_ARGUMENT, &
+        HOLOSYM_NONFINITE_VALUE, HOLOSYM_NEWTON_DIVERGED
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_matrices
     use holosym_linalg, only: lu_factor, lu_solve
     use holosym_problem, only: constrained_hamiltonian
+    use holosym_newton, only: all_finite
     use holosym_reduced_layout, only: reduced_layout_t
     use holosym_reduced_kernels_wp, only: tables_wp => reduced_tables, &
         evaluation_wp => reduced_evaluation, allocate_evaluation_wp => allocate_evaluation, &
@@ -59,6 +61,8 @@ module holosym_reduced_scheme
         real(wp), allocatable :: e(:, :)        !! E(j, k), (0:N, 1:M)
         !> rho_i(1 + d_k): extrapolation of the displacement polynomial to the next step.
         real(wp), allocatable :: extrap(:, :)   !! (0:M node k, 0:M basis i)
+        !> Weights of z_k in h M^-1 p~(0) and h M^-1 p~(1): sum_j chi_j(0 or 1) E(j, k).
+        real(wp), allocatable :: end_weights(:, :) !! (1:M, 2)
         real(wp), allocatable :: mass(:)        !! diagonal of M
         type(tables_wp) :: tab
         type(tables_dp) :: low_tab
@@ -101,6 +105,7 @@ module holosym_reduced_scheme
         procedure :: increments => reduced_increments
         procedure :: linear_dp_change => reduced_linear_dp_change
         procedure :: dense => reduced_dense
+        procedure :: momentum_jump => reduced_momentum_jump
         procedure :: multipliers => reduced_multipliers
         procedure :: extrapolated_guess => reduced_extrapolated_guess
     end type reduced_scheme_t
@@ -135,9 +140,14 @@ contains
                 "diagonal mass matrix (diagonal_mass): the reduced step does not apply")
             return
         end if
-        if (.not. all(self%mass > 0 .and. is_finite(self%mass))) then
+        if (.not. all(is_finite(self%mass))) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "diagonal_mass returned a " // &
-                "mass that is not positive and finite")
+                "mass that is not finite")
+            return
+        end if
+        if (any(self%mass <= 0)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "diagonal_mass returned a " // &
+                "mass that is not positive")
             return
         end if
         if (gauss_points < order_n + 1 .or. order_m < 1 .or. order_n < 0) then
@@ -223,6 +233,9 @@ contains
         do k = 0, mm
             self%extrap(k, :) = lagrange_values(self%disp_nodes, 1 + self%disp_nodes(k))
         end do
+        allocate (self%end_weights(mm, 2))
+        self%end_weights(:, 1) = matmul(lagrange_values(self%mom_nodes, 0.0_wp), self%e)
+        self%end_weights(:, 2) = matmul(lagrange_values(self%mom_nodes, 1.0_wp), self%e)
     end subroutine build_tables
 
     subroutine allocate_workspace(self)
@@ -296,9 +309,15 @@ contains
         if (self%m == 0) return
         call self%sys%constraint_jacobian_values(q, self%layout%phi_rows, self%layout%phi_cols, &
                                                  values)
-        if (.not. all(is_finite(values))) call set_status(status, &
-            HOLOSYM_NONFINITE_VALUE, "constraint_jacobian_values returned a non-finite " // &
-            "value at displacement node " // int_str(i))
+        if (.not. all_finite(values)) then
+            ! At a non-finite point: the step's overflow, not the system's fault.
+            if (.not. all(is_finite(q))) then
+                call overflow(status)
+            else
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint_jacobian_values " &
+                    // "returned a non-finite value at displacement node " // int_str(i))
+            end if
+        end if
     end subroutine node_values
 
     !> grad U at q (user's dh_dq with p = 0), checked.
@@ -310,9 +329,25 @@ contains
         status%code = HOLOSYM_SUCCESS
         call self%sys%dh_dq(q, self%p_zero, gradient)
         self%gradients = self%gradients + 1
-        if (.not. all(is_finite(gradient))) call set_status(status, HOLOSYM_NONFINITE_VALUE, &
-            "dh_dq returned a non-finite value at a Gauss point")
+        if (.not. all_finite(gradient)) then
+            ! At a non-finite point: the step's overflow, not the system's fault.
+            if (.not. all(is_finite(q))) then
+                call overflow(status)
+            else
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq returned a " // &
+                    "non-finite value at a Gauss point")
+            end if
+        end if
     end subroutine potential_gradient
+
+    !> The step's own arithmetic gave a non-finite point from finite values of the system
+    !! (h or the Newton iterate too large): code HOLOSYM_NEWTON_DIVERGED, not a fault of the
+    !! system's procedures.
+    pure subroutine overflow(status)
+        type(holosym_status_t), intent(inout) :: status
+        call set_status(status, HOLOSYM_NEWTON_DIVERGED, "the step's equations overflow " // &
+            "(non-finite values from finite values of the system)")
+    end subroutine overflow
 
     !> The residual in working precision at x; the evaluation is kept for `increments`.
     subroutine reduced_residual(self, x, f, status)
@@ -343,8 +378,10 @@ contains
                          lay%phi_rows, lay%phi_cols, ev)
             call rows_wp(lay%d_row, lay%v_row, self%pa, ev, f)
         end associate
-        if (.not. all(is_finite(f))) then
-            call set_status(status, HOLOSYM_NONFINITE_VALUE, "non-finite residual")
+        if (.not. all_finite(f)) then
+            ! The user's values were finite: the sums overflowed (h or the iterate too large).
+            call set_status(status, HOLOSYM_NEWTON_DIVERGED, "the step's equations overflow " &
+                // "(non-finite residual from finite values of the system)")
             return
         end if
         self%x_eval = x
@@ -359,7 +396,7 @@ contains
         status%code = HOLOSYM_SUCCESS
         if (self%m == 0) return
         call self%sys%constraint(q, self%phi_work)
-        if (.not. all(is_finite(self%phi_work))) call set_status(status, &
+        if (.not. all_finite(self%phi_work)) call set_status(status, &
             HOLOSYM_NONFINITE_VALUE, "constraint returned a non-finite value")
     end subroutine constraint_values
 
@@ -399,8 +436,9 @@ contains
                          self%low_inv_mass, lay%phi_rows, lay%phi_cols, ev)
             call rows_dp(lay%d_row, lay%v_row, real(self%pa, dp), ev, f)
         end associate
-        if (.not. all(ieee_is_finite(f))) call set_status(status, HOLOSYM_NONFINITE_VALUE, &
-            "non-finite residual")
+        if (.not. all(ieee_is_finite(f))) call set_status(status, HOLOSYM_NEWTON_DIVERGED, &
+            "the step's equations overflow in real64 (non-finite residual from finite " // &
+            "values of the system)")
     end subroutine reduced_residual_lowered
 
     !> The Newton matrix and d(p_b - p_a)/dx (real64, in the layout's patterns:
@@ -813,6 +851,25 @@ contains
         end do
         p = self%mass * p / h
     end subroutine reduced_dense
+
+    !> max(|p~(0) - p_a|, |p~(1) - p_b|) of a solved step (unknowns x from (qa, pa) with
+    !! step h, p_b = pa + dpb): how far the momentum polynomial is from the step's end
+    !! momenta. Small (the local error) at the flow's continuation; a spurious root has a
+    !! momentum polynomial unrelated to them.
+    pure function reduced_momentum_jump(self, x, pa, dpb, h) result(jump)
+        class(reduced_scheme_t), intent(in) :: self
+        real(wp), intent(in) :: x(:), pa(:), dpb(:), h
+        real(wp) :: jump
+        real(wp) :: ends(self%n, 2)
+        integer :: k
+        ends = 0
+        do k = 1, self%order_m
+            ends(:, 1) = ends(:, 1) + self%end_weights(k, 1) * x(self%layout%z_col(:, k))
+            ends(:, 2) = ends(:, 2) + self%end_weights(k, 2) * x(self%layout%z_col(:, k))
+        end do
+        jump = max(maxval(abs(self%mass * ends(:, 1) / h - pa)), &
+                   maxval(abs(self%mass * ends(:, 2) / h - pa - dpb)))
+    end function reduced_momentum_jump
 
     !> Multipliers lambda_k = mu_k / h at the displacement nodes, m x (0:M).
     pure subroutine reduced_multipliers(self, x, h, lambda)

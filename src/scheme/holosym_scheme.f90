@@ -17,7 +17,8 @@ module holosym_scheme
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp
     use holosym_status, only: holosym_status_t, set_status, int_str, &
-        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_NONFINITE_VALUE
+        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, &
+        HOLOSYM_NONFINITE_VALUE, HOLOSYM_NEWTON_DIVERGED
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_matrices
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
@@ -36,6 +37,21 @@ module holosym_scheme
     private
 
     public :: unknown_count
+
+    !> Largest M accepted. Up to M = 30 the Lagrange basis on the Lobatto nodes reproduces
+    !! polynomials to 2e-31 (1e3 epsilon), the row-equilibrated Newton Jacobian keeps pivot
+    !! ratios above 3e-6 and the extrapolated first guess converges in about four
+    !! iterations; beyond it the basis loses further digits, the extrapolated guess
+    !! degrades (relative error 1e-3 at M = 35, 1e4 at M = 45) and the order 2M is far
+    !! beyond what real128 round-off lets any step size show (orders above about 30 are
+    !! never observed: docs/status-codes.md).
+    integer, parameter, public :: max_order_m = 30
+    !> Largest N accepted: the momentum polynomial has the same basis and the same limit.
+    integer, parameter, public :: max_order_n = 30
+    !> Largest G accepted. Gauss-Legendre rules computed in working precision stay exact to
+    !! 5e-34 up to 128 points; G = max(M, N) + 1 <= 31 is what the scheme needs, and 64
+    !! leaves room for over-integration (extra points beyond M + 3 change no order).
+    integer, parameter, public :: max_gauss_points = 64
 
     !> Jacobian assembled from the second derivatives of H and phi (default).
     integer, parameter, public :: JACOBIAN_ASSEMBLED = 1
@@ -114,6 +130,8 @@ module holosym_scheme
         ! Extrapolation to the next step of equal size: rho_i(1 + d_k), chi_j(1 + c_l).
         real(wp), allocatable, private :: extrap_q(:, :) ! (0:M node k, 0:M basis i)
         real(wp), allocatable, private :: extrap_p(:, :) ! (0:N node l, 0:N basis j)
+        ! chi_j(0) and chi_j(1): the momentum polynomial at the step's ends.
+        real(wp), allocatable, private :: mom_ends(:, :) ! (0:N basis j, 2)
         ! Step context (valid during one solve).
         class(constrained_hamiltonian), pointer, private :: sys => null()
         ! q_a, p_a, h and the sums that depend only on them.
@@ -170,22 +188,33 @@ module holosym_scheme
         procedure :: dense => scheme_dense
         !> Multipliers lambda_k at the displacement nodes and max |phi| over the nodes.
         procedure :: node_values => scheme_node_values
+        !> Displacement node q_i of the last evaluation (residual or Jacobian).
+        procedure :: node => scheme_node
+        !> Distance of the momentum polynomial's ends from the step's end momenta.
+        procedure :: momentum_jump => scheme_momentum_jump
     end type discrete_scheme
 
 contains
 
-    !> Number of unknowns (= equations) of one step: (M+N+1) n + (M+1) m.
+    !> Number of unknowns (= equations) of one step: (M+N+1) n + (M+1) m; -1 when that
+    !! does not fit the default integer (or an argument is negative).
     pure integer function unknown_count(order_m, order_n, n, m)
         integer, intent(in) :: order_m !! M
         integer, intent(in) :: order_n !! N
         integer, intent(in) :: n       !! coordinates
         integer, intent(in) :: m       !! constraints
-        unknown_count = (order_m + order_n + 1) * n + (order_m + 1) * m
+        integer(int64) :: count
+        unknown_count = -1
+        if (min(order_m, order_n, n, m) < 0) return
+        count = (int(order_m, int64) + order_n + 1) * n + (int(order_m, int64) + 1) * m
+        if (count <= huge(unknown_count)) unknown_count = int(count)
     end function unknown_count
 
     !> Check (M, N, G) and the sizes (n, m) and record them, without allocating anything.
-    !! Codes: HOLOSYM_INVALID_ORDER (M < 1, N < 0, G < 1, or G < N + 1, which is singular
-    !! for every system), HOLOSYM_INVALID_DIMENSION.
+    !! Codes: HOLOSYM_INVALID_ORDER (M, N or G outside 1..max_order_m, 0..max_order_n,
+    !! 1..max_gauss_points, or G < N + 1, which is singular for every system),
+    !! HOLOSYM_INVALID_DIMENSION (n < 1, m < 0, m >= n, or more unknowns n_x than the
+    !! default integer holds).
     subroutine scheme_check(self, order_m, order_n, gauss_points, n, m, status)
         class(discrete_scheme), intent(inout) :: self
         integer, intent(in) :: order_m      !! M >= 1
@@ -195,9 +224,21 @@ contains
         integer, intent(in) :: m            !! constraints, 0 <= m < n
         type(holosym_status_t), intent(out), optional :: status !! outcome
 
-        if (order_m < 1 .or. order_n < 0 .or. gauss_points < 1) then
-            call set_status(status, HOLOSYM_INVALID_ORDER, "need M >= 1, N >= 0, G >= 1; got M = " &
-                // int_str(order_m) // ", N = " // int_str(order_n) // ", G = " // &
+        if (order_m < 1 .or. order_m > max_order_m) then
+            call set_status(status, HOLOSYM_INVALID_ORDER, "M must be in 1.." // &
+                int_str(max_order_m) // " (the limit of max_order_m); got M = " // &
+                int_str(order_m))
+            return
+        end if
+        if (order_n < 0 .or. order_n > max_order_n) then
+            call set_status(status, HOLOSYM_INVALID_ORDER, "N must be in 0.." // &
+                int_str(max_order_n) // " (the limit of max_order_n); got N = " // &
+                int_str(order_n))
+            return
+        end if
+        if (gauss_points < 1 .or. gauss_points > max_gauss_points) then
+            call set_status(status, HOLOSYM_INVALID_ORDER, "G must be in 1.." // &
+                int_str(max_gauss_points) // " (the limit of max_gauss_points); got G = " // &
                 int_str(gauss_points))
             return
         end if
@@ -216,6 +257,12 @@ contains
                 // int_str(n) // ", m = " // int_str(m))
             return
         end if
+        if (unknown_count(order_m, order_n, n, m) < 0) then
+            call set_status(status, HOLOSYM_INVALID_DIMENSION, "n = " // int_str(n) // &
+                ", m = " // int_str(m) // " with M = " // int_str(order_m) // ", N = " // &
+                int_str(order_n) // " gives more unknowns than the default integer holds")
+            return
+        end if
         self%order_m = order_m
         self%order_n = order_n
         self%gauss_points = gauss_points
@@ -226,7 +273,9 @@ contains
     end subroutine scheme_check
 
     !> Set up nodes, weights and basis matrices for (M, N, G) and the sizes (n, m).
-    !! Codes: those of `check`.
+    !! Codes: those of `check`, and HOLOSYM_INVALID_DIMENSION when the dense workspace
+    !! (n_x^2 Newton matrix entries, n^2 m constraint second derivatives) has more entries
+    !! than the default integer holds.
     subroutine scheme_init(self, order_m, order_n, gauss_points, n, m, status)
         class(discrete_scheme), intent(inout) :: self
         integer, intent(in) :: order_m      !! M >= 1
@@ -242,6 +291,14 @@ contains
         ! A scheme may be set up again for other orders or sizes: start from scratch.
         call release(self)
         call self%check(order_m, order_n, gauss_points, n, m, local)
+        if (local%ok() .and. (int(self%nx, int64)**2 > huge(0) .or. &
+                              int(n, int64)**2 * max(m, 1) > huge(0))) then
+            call set_status(local, HOLOSYM_INVALID_DIMENSION, "n = " // int_str(n) // &
+                ", m = " // int_str(m) // " with M = " // int_str(order_m) // ", N = " // &
+                int_str(order_n) // " is too large for the dense Newton matrix of the " // &
+                "general scheme (n_x^2 = " // int_str(self%nx) // "^2 and n^2 m must not " // &
+                "exceed " // int_str(huge(0)) // ")")
+        end if
         if (.not. local%ok()) then
             call set_status(status, local%code, local%message)
             return
@@ -275,6 +332,9 @@ contains
         do k = 0, order_n
             self%extrap_p(k, :) = lagrange_values(self%mom_nodes, 1 + self%mom_nodes(k))
         end do
+        allocate (self%mom_ends(0:order_n, 2))
+        self%mom_ends(:, 1) = lagrange_values(self%mom_nodes, 0.0_wp)
+        self%mom_ends(:, 2) = lagrange_values(self%mom_nodes, 1.0_wp)
 
         call lowered_sums(self%tab, self%low%tab)
         call allocate_step_constants(self%low%step, order_m, order_n, gauss_points, n)
@@ -302,7 +362,7 @@ contains
         type(lowered_tables_t) :: empty_lowered ! every component unallocated
         if (allocated(self%disp_nodes)) deallocate (self%disp_nodes, self%lobatto_weights, &
             self%mom_nodes, self%gauss_nodes, self%gauss_weights, self%b, self%a, self%c)
-        if (allocated(self%extrap_q)) deallocate (self%extrap_q, self%extrap_p)
+        if (allocated(self%extrap_q)) deallocate (self%extrap_q, self%extrap_p, self%mom_ends)
         self%tab = scheme_tables_wp()
         self%step = step_constants_wp()
         self%hess = assembly_hessians_wp()
@@ -414,8 +474,13 @@ contains
         call self%sys%dh_dp(self%q_gauss(:, g), self%p_gauss(:, g), self%hp_gauss(:, g))
         self%counters%gradients = self%counters%gradients + 2
         if (.not. (all_finite(self%hq_gauss(:, g)) .and. all_finite(self%hp_gauss(:, g)))) then
-            call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq or dh_dp returned a " // &
-                "non-finite value at Gauss point " // int_str(g))
+            ! A non-finite point is the step's overflow, not the system's fault.
+            if (.not. (all_finite(self%q_gauss(:, g)) .and. all_finite(self%p_gauss(:, g)))) then
+                call overflow(status)
+            else
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq or dh_dp returned a " &
+                    // "non-finite value at Gauss point " // int_str(g))
+            end if
         end if
     end subroutine gauss_gradients
 
@@ -434,9 +499,14 @@ contains
             if (i >= 1 .and. self%m > 0) call self%sys%constraint_jacobian(self%q_nodes(:, i), &
                                                                            self%phi_jac(:, :, i))
             if (.not. all_finite_matrix(self%phi_jac(:, :, i))) then
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, &
-                    "constraint_jacobian returned " // &
-                    "a non-finite value at displacement node " // int_str(i))
+                ! A non-finite node is the step's overflow, not the system's fault.
+                if (.not. all_finite(self%q_nodes(:, i))) then
+                    call overflow(status)
+                else
+                    call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+                        "constraint_jacobian returned " // &
+                        "a non-finite value at displacement node " // int_str(i))
+                end if
                 return
             end if
         end do
@@ -530,14 +600,33 @@ contains
         call self%sys%dh_dp(self%q_nodes(:, self%order_m), self%d_values(:, self%order_m), &
                             self%velocity)
         self%counters%gradients = self%counters%gradients + 1
+        row = (self%order_m + self%order_n + 1) * self%n
+        if (.not. (all_finite(f(row + 1:row + self%order_m * m)) .and. &
+                   all_finite(self%velocity))) then
+            ! dh_dp at a non-finite momentum D_M is the step's overflow, not the system's.
+            if (.not. all_finite(self%d_values(:, self%order_m))) then
+                call overflow(status)
+            else
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint or dh_dp " // &
+                    "returned a non-finite value at a displacement node")
+            end if
+            return
+        end if
+        row = row + self%order_m * m
         do l = 1, m
             f(row + l) = sum(self%phi_jac(l, :, self%order_m) * self%velocity)
         end do
-        if (.not. all_finite(f)) then
-            call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint or dh_dp returned a " // &
-                "non-finite value at a displacement node")
-        end if
+        if (.not. all_finite(f)) call overflow(status)
     end subroutine constraint_rows
+
+    !> The step's own arithmetic gave a non-finite value from finite values of the system
+    !! (h or the Newton iterate too large for working precision): code
+    !! HOLOSYM_NEWTON_DIVERGED, not a fault of the system's procedures.
+    pure subroutine overflow(status)
+        type(holosym_status_t), intent(inout) :: status
+        call set_status(status, HOLOSYM_NEWTON_DIVERGED, "the step's equations overflow " // &
+            "(non-finite values from finite values of the system)")
+    end subroutine overflow
 
     !> Jacobian of the step equations at x: assembled from the second derivatives of H
     !! and phi (the system's own, or central differences of its gradients, as
@@ -1049,6 +1138,35 @@ contains
             p = p + chi(j) * x(w_at(self, j) + 1:w_at(self, j) + self%n)
         end do
     end subroutine scheme_dense
+
+    !> max(|p~(0) - p_a|, |p~(1) - p_b|) of a solved step (solution x, p_b = p_a + dp):
+    !! how far the momentum polynomial is from the step's end momenta. Small (the local
+    !! error) at the flow's continuation; a spurious root has a momentum polynomial
+    !! unrelated to them. p~(tau) - p_a = sum_j chi_j(tau) w_j.
+    pure function scheme_momentum_jump(self, x, dp) result(jump)
+        class(discrete_scheme), intent(in) :: self
+        real(wp), intent(in) :: x(:)   !! solution of the step
+        real(wp), intent(in) :: dp(:)  !! p_b - p_a
+        real(wp) :: jump
+        real(wp) :: ends(self%n, 2)
+        integer :: j, base
+        ends = 0
+        do j = 0, self%order_n
+            base = w_at(self, j)
+            ends(:, 1) = ends(:, 1) + self%mom_ends(j, 1) * x(base + 1:base + self%n)
+            ends(:, 2) = ends(:, 2) + self%mom_ends(j, 2) * x(base + 1:base + self%n)
+        end do
+        jump = max(maxval(abs(ends(:, 1))), maxval(abs(ends(:, 2) - dp)))
+    end function scheme_momentum_jump
+
+    !> Displacement node q_i (i = 0..M) of the point of the last evaluation: after a
+    !! failed Newton solve, the nodes of the iterate where it stopped.
+    pure subroutine scheme_node(self, i, q)
+        class(discrete_scheme), intent(in) :: self
+        integer, intent(in) :: i       !! node index, 0..M
+        real(wp), intent(out) :: q(:)  !! q_i (n)
+        q = self%q_nodes(:, i)
+    end subroutine scheme_node
 
     !> Multipliers at the displacement nodes and the largest |phi(q_i)|, i = 0..M.
     subroutine scheme_node_values(self, x, lambda, max_phi)

@@ -8,6 +8,7 @@
 !! stores 2 kl + ku + 1 rows of length n (LAPACK band storage with room for the fill-in
 !! of partial pivoting): memory and work grow linearly with n for a fixed band.
 module holosym_factors
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: dp
     use holosym_linalg, only: lu_factor_dp, lu_solve_dp, default_pivot_tolerance_dp
     implicit none
@@ -114,8 +115,9 @@ contains
                 row_max = max(row_max, abs(values(e)))
             end do
             self%row_scale(r) = 1
-            if (row_max > 0 .and. row_max <= huge(1.0_dp)) &
-                self%row_scale(r) = set_exponent(1.0_dp, 1 - exponent(row_max))
+            if (ieee_is_finite(row_max)) then
+                if (row_max > 0) self%row_scale(r) = set_exponent(1.0_dp, 1 - exponent(row_max))
+            end if
             do e = row_start(r), row_start(r + 1) - 1
                 if (self%banded) then
                     self%a(diag_row + r - columns(e), columns(e)) = values(e) * self%row_scale(r)

@@ -16,6 +16,8 @@
 !! in the real64 build, for everything. The LAPACK/BLAS calls run one thread at a time
 !! (an OpenMP critical section): a serial OpenBLAS is not safe for concurrent calls.
 module holosym_linalg
+    ! IEEE classification of the entries: no ordered comparison ever sees a NaN.
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp
     implicit none
     private
@@ -92,9 +94,10 @@ contains
 
     !> LU factorisation P A = L U with partial (row) pivoting, in place.
     !!
-    !! `info`: 0 success; -1 `a` not square; -2 `pivots` too short; k > 0 when the k-th
-    !! pivot is at most `tolerance * max|A|` (singular to working precision; the factors are
-    !! then incomplete and must not be used). All-zero and empty matrices: see below.
+    !! `info`: 0 success; -1 `a` not square; -2 `pivots` too short; -4 `tolerance` not
+    !! finite; k > 0 when the k-th pivot is at most `tolerance * max|A|` (singular to working
+    !! precision; the factors are then incomplete and must not be used), or when column k is
+    !! the first with a NaN or infinite entry. All-zero and empty matrices: see below.
     pure subroutine lu_factor(a, pivots, info, tolerance, pivot_ratio)
         real(wp), intent(inout) :: a(:, :)  !! on entry A (n x n); on exit L (unit, below) and U
         integer, intent(out) :: pivots(:)   !! row interchanges: row k was swapped with pivots(k)
@@ -108,10 +111,23 @@ contains
         if (present(pivot_ratio)) pivot_ratio = 0
         info = argument_info(n, size(a, 2), size(pivots))
         if (info /= 0) return
+        if (present(tolerance)) then
+            if (.not. ieee_is_finite(tolerance)) then
+                info = -4
+                return
+            end if
+        end if
         if (n == 0) then
             if (present(pivot_ratio)) pivot_ratio = 1
             return
         end if
+        ! A NaN or infinite entry: singular at the first column holding one.
+        do k = 1, n
+            if (.not. all(ieee_is_finite(a(:, k)))) then
+                info = k
+                return
+            end if
+        end do
         scale = maxval(abs(a))
         if (present(tolerance)) then
             threshold = tolerance * scale
@@ -192,8 +208,9 @@ contains
 
     !> LU factorisation of a real64 matrix (own loops below order 32, LAPACK dgetrf above),
     !! with the same contract as `lu_factor`: `info` 0 success, -1 not square, -2 `pivots`
-    !! too short, k > 0 when the k-th pivot is at most `tolerance * max|A|` (default
-    !! n * epsilon(1.0_dp)).
+    !! too short, -4 `tolerance` not finite, k > 0 when the k-th pivot is at most
+    !! `tolerance * max|A|` (default n * epsilon(1.0_dp)) or column k is the first with a
+    !! NaN or infinite entry.
     subroutine lu_factor_dp(a, pivots, info, tolerance, pivot_ratio)
         real(dp), intent(inout), contiguous :: a(:, :) !! A (n x n) in, LAPACK factors out
         integer, intent(out) :: pivots(:)   !! row interchanges (LAPACK ipiv)
@@ -207,26 +224,39 @@ contains
         if (present(pivot_ratio)) pivot_ratio = 0
         info = argument_info(n, size(a, 2), size(pivots))
         if (info /= 0) return
+        if (present(tolerance)) then
+            if (.not. ieee_is_finite(tolerance)) then
+                info = -4
+                return
+            end if
+        end if
         if (n == 0) then
             if (present(pivot_ratio)) pivot_ratio = 1
             return
         end if
+        ! A NaN or infinite entry: singular at the first column holding one.
+        do k = 1, n
+            if (.not. all(ieee_is_finite(a(:, k)))) then
+                info = k
+                return
+            end if
+        end do
         scale = maxval(abs(a))
         if (present(tolerance)) then
             threshold = tolerance * scale
         else
             threshold = default_pivot_tolerance_dp(n) * scale
         end if
-        ! One thread at a time: a serial OpenBLAS (Debian's default) shares internal
-        ! buffers between concurrent calls (seen as run-to-run differences in the OpenMP
-        ! `tables`; none with the reference LAPACK or inside this critical section).
-        !$omp critical (holosym_lapack)
         if (n < small_lu_size) then
             call small_lu(a, pivots)
         else
+            ! One thread at a time: a serial OpenBLAS (Debian's default) shares internal
+            ! buffers between concurrent calls (seen as run-to-run differences in the OpenMP
+            ! `tables`; none with the reference LAPACK or inside this critical section).
+            !$omp critical (holosym_lapack)
             call dgetrf(n, n, a, size(a, 1), pivots, lapack_info)
+            !$omp end critical (holosym_lapack)
         end if
-        !$omp end critical (holosym_lapack)
         smallest = huge(1.0_dp)
         do k = 1, n
             ! Also catches scale == 0, LAPACK's exact zero pivots and NaN entries.

@@ -23,6 +23,9 @@
 !!   corrections reach about 1.6e-10 (`lowered_tolerance`), then continue with the
 !!   working-precision residual.
 module holosym_newton
+    ! IEEE classification for the finiteness tests: it never raises an exception, and used at
+    ! module level it adds no per-call floating-point state handling.
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
         lu_solve_dp, default_pivot_tolerance_dp
@@ -33,7 +36,8 @@ module holosym_newton
     private
 
     public :: nonlinear_system, newton_settings_t, newton_report_t, newton_solve
-    public :: newton_workspace_t, all_finite, all_finite_matrix, stagnation_floor
+    public :: newton_workspace_t, all_finite, all_finite_matrix, stagnation_floor, &
+        newton_settings_valid
 
     !> Factor the Newton Jacobian in working precision with `lu_factor` (default).
     integer, parameter, public :: LINEAR_SOLVER_NATIVE = 1
@@ -258,9 +262,23 @@ contains
         type(holosym_status_t) :: eval_status
 
         nx = size(x)
-        if (settings%max_iterations < 1) then
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "max_iterations must be >= 1, got " &
-                // int_str(settings%max_iterations))
+        if (.not. newton_settings_valid(settings, eval_status%message)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, eval_status%message)
+            return
+        end if
+        ! Finiteness first: an ordered comparison with a NaN raises 'invalid'.
+        if (.not. is_finite(scale)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "scale must be >= 0 and " // &
+                "finite, got " // real_str(scale))
+            return
+        else if (scale < 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "scale must be >= 0 and " // &
+                "finite, got " // real_str(scale))
+            return
+        end if
+        if (.not. all_finite(x)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "the first guess x contains " // &
+                "NaN or Inf")
             return
         end if
         call ws%setup(nx)
@@ -320,7 +338,7 @@ contains
                         call fail(eval_status%code, eval_status%message)
                         return
                     end if
-                    if (all(abs(ws%jac_dp) <= huge(1.0_dp))) then
+                    if (all(ieee_is_finite(ws%jac_dp))) then
                         call equilibrate_rows_dp(ws%jac_dp, ws%row_scale)
                         call lu_factor_dp(ws%jac_dp, ws%pivots, info, &
                             max(real(tolerance, dp), default_pivot_tolerance_dp(nx)), &
@@ -510,6 +528,53 @@ contains
         if (stagnation_floor <= 0) stagnation_floor = eps**(2.0_wp / 3)
     end function stagnation_floor
 
+    !> Whether every Newton setting is in its range; `message` names the first that is not.
+    !! Ranges: 1 <= max_iterations, 1 <= max_growth, 0 < tolerance < 1,
+    !! 0 <= stagnation_level < 1, pivot_tolerance < 1 (<= 0: the default),
+    !! 0 < contraction_limit < 1, 0 <= jacobian_cost, every real finite.
+    logical function newton_settings_valid(settings, message) result(valid)
+        type(newton_settings_t), intent(in) :: settings !! the settings
+        character(len=:), allocatable, intent(out) :: message !! the first bad one, or ""
+        message = ""
+        ! Finiteness first: ordered comparisons with a NaN would raise 'invalid'.
+        associate (s => settings)
+            if (s%max_iterations < 1) then
+                message = "newton%max_iterations must be >= 1, got " // &
+                    int_str(s%max_iterations)
+            else if (s%max_growth < 1) then
+                message = "newton%max_growth must be >= 1, got " // int_str(s%max_growth)
+            else if (.not. is_finite(s%tolerance)) then
+                message = "newton%tolerance must be finite, got " // real_str(s%tolerance)
+            else if (s%tolerance <= 0 .or. s%tolerance >= 1) then
+                message = "newton%tolerance must be in (0, 1), got " // real_str(s%tolerance)
+            else if (.not. is_finite(s%stagnation_level)) then
+                message = "newton%stagnation_level must be finite, got " // &
+                    real_str(s%stagnation_level)
+            else if (s%stagnation_level < 0 .or. s%stagnation_level >= 1) then
+                message = "newton%stagnation_level must be in [0, 1), got " // &
+                    real_str(s%stagnation_level)
+            else if (.not. is_finite(s%pivot_tolerance)) then
+                message = "newton%pivot_tolerance must be finite, got " // &
+                    real_str(s%pivot_tolerance)
+            else if (s%pivot_tolerance >= 1) then
+                message = "newton%pivot_tolerance must be < 1 (<= 0 for the default), got " &
+                    // real_str(s%pivot_tolerance)
+            else if (.not. is_finite(s%contraction_limit)) then
+                message = "newton%contraction_limit must be finite, got " // &
+                    real_str(s%contraction_limit)
+            else if (s%contraction_limit <= 0 .or. s%contraction_limit >= 1) then
+                message = "newton%contraction_limit must be in (0, 1), got " // &
+                    real_str(s%contraction_limit)
+            else if (.not. is_finite(s%jacobian_cost)) then
+                message = "newton%jacobian_cost must be finite, got " // &
+                    real_str(s%jacobian_cost)
+            else if (s%jacobian_cost < 0) then
+                message = "newton%jacobian_cost must be >= 0, got " // real_str(s%jacobian_cost)
+            end if
+        end associate
+        valid = len(message) == 0
+    end function newton_settings_valid
+
     !> Default `residual_lowered`: the working-precision residual.
     subroutine default_residual_lowered(self, x, f, status)
         class(nonlinear_system), intent(inout) :: self !! the system
@@ -594,13 +659,13 @@ contains
             / log(real(rate, dp))
     end function refactor_pays
 
-    !> True when no entry is NaN or infinite (a comparison; no IEEE state handling).
+    !> True when no entry is NaN or infinite (never raises an IEEE exception).
     pure logical function all_finite(values)
         real(wp), intent(in) :: values(:) !! values to test
         integer :: i
         all_finite = .true.
         do i = 1, size(values)
-            if (.not. abs(values(i)) <= huge(1.0_wp)) then
+            if (.not. ieee_is_finite(values(i))) then
                 all_finite = .false.
                 return
             end if

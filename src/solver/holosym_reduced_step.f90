@@ -77,13 +77,20 @@ module holosym_reduced_step
         integer :: steps_since_measured = 0
         real(wp), allocatable :: x(:), f(:), x_guess(:)
         real(dp), allocatable :: x_low(:), delta(:), f_low(:)
-        ! The previous solved step.
+        !> The last solve started from the extrapolated guess (else from the constant one).
+        logical :: extrapolated = .false.
+        !> The iterate at which the Newton matrix was last found singular during the last
+        !! solve (valid when `have_singular_x`): where the constraints may be dependent.
+        logical :: have_singular_x = .false.
+        real(wp), allocatable :: singular_x(:)
+        ! The previous accepted step (see `accept`).
         logical :: have_last = .false.
         real(wp), allocatable :: last_x(:), last_qa(:)
         real(wp) :: last_h = 0
     contains
         procedure :: init => step_init
         procedure :: solve => step_solve
+        procedure :: accept => step_accept
         procedure :: forget => step_forget
     end type reduced_step_t
 
@@ -101,9 +108,10 @@ contains
         nx = self%scheme%nx
         call self%factors%setup(nx, self%scheme%layout%kl, self%scheme%layout%ku)
         if (allocated(self%x)) deallocate (self%x, self%f, self%x_guess, self%x_low, &
-                                           self%delta, self%f_low, self%last_x, self%last_qa)
+                                           self%delta, self%f_low, self%last_x, self%last_qa, &
+                                           self%singular_x)
         allocate (self%x(nx), self%f(nx), self%x_guess(nx), self%x_low(nx), self%delta(nx), &
-                  self%f_low(nx), self%last_x(nx), self%last_qa(sys%n))
+                  self%f_low(nx), self%last_x(nx), self%last_qa(sys%n), self%singular_x(nx))
         call self%forget()
     end subroutine step_init
 
@@ -120,11 +128,13 @@ contains
         self%have_last = .false.
     end subroutine step_forget
 
-    !> Solve the step from (q, p) with size h: increments dq = q_b - q_a, dpb = p_b - p_a.
+    !> Solve the step from (q, p) with size h: increments dq = q_b - q_a, dpb = p_b - p_a,
+    !! and the solution in `x`; `accept` makes it the previous step of the next solve.
     !! `tolerance` bounds the Newton error relative to the state's size (`scale`);
-    !! `extrapolate` starts from the previous step's polynomials when (q, p) continues it.
-    !! On failure the kept factors are dropped. Codes: HOLOSYM_SINGULAR_MATRIX,
-    !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE.
+    !! `continues` starts from the previous accepted step's polynomials (when its h is the
+    !! same). On failure the kept factors and the previous step are dropped. Codes:
+    !! HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED (also
+    !! equations that overflow), HOLOSYM_NONFINITE_VALUE (from the system's procedures).
     subroutine step_solve(self, sys, q, p, h, tolerance, stagnation, max_iterations, &
                           continues, dq, dpb, report, status)
         class(reduced_step_t), intent(inout) :: self
@@ -155,7 +165,9 @@ contains
             self%fresh_streak = self%fresh_streak + 1
             if (mod(self%fresh_streak, retry_kept_every) /= 0) self%factors%factored = .false.
         end if
-        if (continues .and. self%have_last .and. h == self%last_h) then
+        self%have_singular_x = .false.
+        self%extrapolated = continues .and. self%have_last .and. h == self%last_h
+        if (self%extrapolated) then
             call self%scheme%extrapolated_guess(self%last_x, self%last_qa, q, self%x_guess)
         else
             self%x_guess = 0
@@ -166,6 +178,7 @@ contains
             ! Kept factors may be stale, or the extrapolation poor: fresh factors from the
             ! constant guess.
             self%factors%factored = .false.
+            self%extrapolated = .false.
             self%x = 0
             call newton(status)
         end if
@@ -177,10 +190,6 @@ contains
             self%have_last = .false.
             return
         end if
-        self%last_x = self%x
-        self%last_qa = q
-        self%last_h = h
-        self%have_last = .true.
 
     contains
 
@@ -207,11 +216,22 @@ contains
             do iter = 1, max_iterations
                 report%iterations = report%iterations + 1
                 ! The residual at x; new factors, when due, from the same evaluation.
+                ! An iterate or residual beyond the range of real64 (h far beyond the
+                ! system's scale) cannot be lowered: the iteration has diverged.
                 if (lowered) then
+                    if (.not. fits_real64(self%x)) then
+                        call beyond_real64("iterate", status)
+                        return
+                    end if
                     self%x_low = real(self%x, dp)
                     call self%scheme%residual_lowered(self%x_low, self%f_low, status)
                 else
                     call self%scheme%residual(self%x, self%f, status)
+                    if (.not. status%ok()) return
+                    if (.not. fits_real64(self%f)) then
+                        call beyond_real64("residual", status)
+                        return
+                    end if
                     self%f_low = real(self%f, dp)
                 end if
                 if (.not. status%ok()) return
@@ -289,6 +309,15 @@ contains
                 "after " // int_str(max_iterations) // " iterations")
         end subroutine newton
 
+        !> HOLOSYM_NEWTON_DIVERGED: the `what` of the iteration left the range of real64.
+        subroutine beyond_real64(what, status)
+            character(len=*), intent(in) :: what
+            type(holosym_status_t), intent(out) :: status
+            call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton diverged: the " // &
+                what // " left the range of real64 at iteration " // &
+                int_str(report%iterations))
+        end subroutine beyond_real64
+
         !> The first working-precision corrections: the first is accepted when a known
         !! contraction predicts the tolerance met: that of the real64 phase when its factors
         !! are kept, or `learned_rate` for factors renewed at its end (the second correction
@@ -339,6 +368,8 @@ contains
                                      self%scheme%jac_values, info)
             report%factorizations = report%factorizations + 1
             if (info /= 0) then
+                self%singular_x = self%x
+                self%have_singular_x = .true.
                 call set_status(status, HOLOSYM_SINGULAR_MATRIX, "reduced Newton matrix " // &
                     "singular at pivot " // int_str(info) // " of " // int_str(self%scheme%nx))
                 return
@@ -347,6 +378,33 @@ contains
         end subroutine refactor
 
     end subroutine step_solve
+
+    !> Whether every finite entry of `values` is within the range of real64, so that
+    !! converting it cannot overflow (NaN and Inf convert as they are; they are not
+    !! compared, which would raise 'invalid').
+    pure logical function fits_real64(values) result(fits)
+        real(wp), intent(in) :: values(:)
+        integer :: k
+        fits = .true.
+        do k = 1, size(values)
+            if (.not. is_finite(values(k))) cycle
+            if (abs(values(k)) > huge(1.0_dp)) then
+                fits = .false.
+                return
+            end if
+        end do
+    end function fits_real64
+
+    !> Make the last solution (`x`, from q with step h) the previous step of the next solve.
+    subroutine step_accept(self, q, h)
+        class(reduced_step_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:) !! start coordinates of the solved step
+        real(wp), intent(in) :: h    !! its step size
+        self%last_x = self%x
+        self%last_qa = q
+        self%last_h = h
+        self%have_last = .true.
+    end subroutine step_accept
 
     !> At the end of the real64 phase (last correction `correction`, contraction `rate`):
     !! whether fresh factors here reach `tolerance` in fewer working-precision residuals,

@@ -1,0 +1,522 @@
+!> Files and programs of the `holosym` tool, handled so that failures are seen and no
+!! text ever reaches a shell.
+!!
+!! Output: a full disk, a full device (/dev/full), a closed standard output or a file-size
+!! limit make the command fail. gfortran's units do not report these: a `write`, `flush`
+!! or `close` to a full device returns iostat 0 (gfortran 12). So results go through
+!! `output_t`, which buffers lines and writes them with write(2), and on `close` forces a
+!! regular file to its device (fsync(2)) and checks close(2); the first failure is kept
+!! with its system error text.
+!!
+!! Input: `read_text_file` reads a whole text file, refusing what is not text (a NUL or
+!! other control byte, as /dev/zero or /dev/full give) and lines beyond `max_line_length`,
+!! so that no device or binary file makes a reader loop or exhaust memory.
+!!
+!! Directories are created with mkdir(2), files removed with unlink(2) and other programs
+!! run with posix_spawnp(3) (`run_program`), never through a shell: a path or argument
+!! with quotes, semicolons or `$(...)` is passed on as it is. The POSIX calls are in
+!! holosym_posix.c.
+module holosym_output
+    use, intrinsic :: iso_c_binding, only: c_int, c_long, c_char, c_null_char
+    use, intrinsic :: iso_fortran_env, only: error_unit, int64
+    use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+    implicit none
+    private
+
+    public :: output_t, open_output, standard_output, make_directories, error_text
+    public :: keep_standard_streams, remove_file, run_program, command_text, text_t
+    public :: read_text_file, append_text
+    public :: max_line_length
+
+    !> Bytes collected before a write(2).
+    integer, parameter :: buffer_size = 65536
+    !> Longest line `read_text_file` accepts (1 MiB).
+    integer, parameter :: max_line_length = 1048576
+
+    !> A piece of text of any length: a line of a file, or an argument of a program.
+    type :: text_t
+        character(len=:), allocatable :: text !! the text
+    end type text_t
+
+    !> A text output: standard output or a file opened by `open_output`.
+    type :: output_t
+        integer(c_int) :: fd = -1        !! descriptor (-1: not open)
+        character(len=:), allocatable :: name !! "standard output" or the path, for messages
+        character(len=buffer_size) :: buffer  !! bytes not written yet
+        integer :: used = 0               !! bytes in `buffer`
+        integer :: error = 0              !! errno of the first failure, 0 if none
+        logical :: owned = .false.        !! opened here: `close` closes the descriptor
+    contains
+        !> Append a line (the text and a newline).
+        procedure :: line => output_line
+        !> Write the buffered bytes.
+        procedure :: flush => output_flush
+        !> Flush, force a regular file to its device and close it; the outcome.
+        procedure :: close => output_close
+        !> True when a write has failed.
+        procedure :: failed => output_failed
+    end type output_t
+
+    interface
+        integer(c_int) function c_open_write(path, fd) bind(C, name="holosym_open_write")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int), intent(out) :: fd
+        end function c_open_write
+
+        integer(c_int) function c_write_all(fd, buffer, n) bind(C, name="holosym_write_all")
+            import :: c_int, c_char, c_long
+            integer(c_int), value :: fd
+            character(kind=c_char), intent(in) :: buffer(*)
+            integer(c_long), value :: n
+        end function c_write_all
+
+        integer(c_int) function c_sync(fd) bind(C, name="holosym_sync")
+            import :: c_int
+            integer(c_int), value :: fd
+        end function c_sync
+
+        integer(c_int) function c_close(fd) bind(C, name="holosym_close")
+            import :: c_int
+            integer(c_int), value :: fd
+        end function c_close
+
+        integer(c_int) function c_make_directories(path) &
+            bind(C, name="holosym_make_directories")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_make_directories
+
+        subroutine c_error_text(error, buffer, size) bind(C, name="holosym_error_text")
+            import :: c_int, c_char
+            integer(c_int), value :: error
+            character(kind=c_char), intent(out) :: buffer(*)
+            integer(c_int), value :: size
+        end subroutine c_error_text
+
+        subroutine c_keep_standard_streams() bind(C, name="holosym_keep_standard_streams")
+        end subroutine c_keep_standard_streams
+
+        integer(c_int) function c_remove_file(path) bind(C, name="holosym_remove_file")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_remove_file
+
+        integer(c_int) function c_run_program(args, count, output, exit_code, stage) &
+            bind(C, name="holosym_run_program")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: args(*)
+            integer(c_int), value :: count
+            character(kind=c_char), intent(in) :: output(*)
+            integer(c_int), intent(out) :: exit_code, stage
+        end function c_run_program
+    end interface
+
+    interface
+        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
+        !! application module out of `fpm install` (see fpm.toml).
+        module subroutine not_installed()
+        end subroutine not_installed
+    end interface
+
+contains
+
+    !> Standard output (descriptor 1), not closed by `close`.
+    function standard_output() result(out)
+        type(output_t) :: out
+        out%fd = 1
+        out%name = "standard output"
+        out%owned = .false.
+    end function standard_output
+
+    !> Create or truncate `path` for writing. Failure: HOLOSYM_INVALID_ARGUMENT with the
+    !! path and the system's reason.
+    subroutine open_output(path, out, status)
+        character(len=*), intent(in) :: path          !! the file
+        type(output_t), intent(out) :: out            !! the output
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer(c_int) :: error
+        out%name = path
+        error = c_open_write(c_text(path), out%fd)
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        if (error /= 0) then
+            out%fd = -1
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "cannot open '" // path // "': " // error_text(int(error))
+            return
+        end if
+        out%owned = .true.
+    end subroutine open_output
+
+    !> Append `text` and a newline; writes when the buffer is full. After a failure nothing
+    !! more is written.
+    subroutine output_line(self, text)
+        class(output_t), intent(inout) :: self
+        character(len=*), intent(in) :: text !! the line, without its end
+        call put(self, text)
+        call put(self, new_line("a"))
+    end subroutine output_line
+
+    !> Append bytes to the buffer, writing it out whenever it fills.
+    subroutine put(self, text)
+        class(output_t), intent(inout) :: self
+        character(len=*), intent(in) :: text
+        integer :: first, chunk
+        first = 1
+        do while (first <= len(text) .and. self%error == 0)
+            chunk = min(len(text) - first + 1, buffer_size - self%used)
+            self%buffer(self%used + 1:self%used + chunk) = text(first:first + chunk - 1)
+            self%used = self%used + chunk
+            first = first + chunk
+            if (self%used == buffer_size) call output_flush(self)
+        end do
+    end subroutine put
+
+    !> Write the buffered bytes (nothing after a failure, or when not open).
+    subroutine output_flush(self)
+        class(output_t), intent(inout) :: self
+        integer(c_int) :: error
+        if (self%used == 0 .or. self%error /= 0) return
+        if (self%fd < 0) then
+            self%error = 9  ! EBADF
+            return
+        end if
+        error = c_write_all(self%fd, self%buffer, int(self%used, c_long))
+        self%used = 0
+        if (error /= 0) self%error = int(error)
+    end subroutine output_flush
+
+    !> Flush, force a regular file's data to its device and close a file opened here.
+    !! Failure (the first write, sync or close error): HOLOSYM_INVALID_ARGUMENT with the
+    !! output's name and the system's reason.
+    subroutine output_close(self, status)
+        class(output_t), intent(inout) :: self
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer(c_int) :: error
+        call output_flush(self)
+        if (self%fd >= 0 .and. self%error == 0) then
+            error = c_sync(self%fd)
+            if (error /= 0) self%error = int(error)
+        end if
+        if (self%owned .and. self%fd >= 0) then
+            error = c_close(self%fd)
+            if (error /= 0 .and. self%error == 0) self%error = int(error)
+            self%fd = -1
+            self%owned = .false.
+        end if
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        if (self%error /= 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "cannot write " // self%name // ": " // error_text(self%error)
+        end if
+    end subroutine output_close
+
+    !> True when a write has failed.
+    pure logical function output_failed(self)
+        class(output_t), intent(in) :: self
+        output_failed = self%error /= 0
+    end function output_failed
+
+    !> Create the directory `path` and its missing parents (mkdir -p, without a shell).
+    !! Failure: HOLOSYM_INVALID_ARGUMENT naming the path and the system's reason.
+    subroutine make_directories(path, status)
+        character(len=*), intent(in) :: path          !! the directory
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer(c_int) :: error
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        error = c_make_directories(c_text(path))
+        if (error /= 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "cannot create directory '" // path // "': " // &
+                error_text(int(error))
+        end if
+    end subroutine make_directories
+
+    !> Remove the file `path` (unlink(2), without a shell); a missing file is no error.
+    !! Failure: HOLOSYM_INVALID_ARGUMENT naming the path and the system's reason.
+    subroutine remove_file(path, status)
+        character(len=*), intent(in) :: path          !! the file
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer(c_int) :: error
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        error = c_remove_file(c_text(path))
+        if (error /= 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "cannot remove '" // path // "': " // error_text(int(error))
+        end if
+    end subroutine remove_file
+
+    !> Run the program `argv(1)` with the arguments `argv(2:)` and wait for it. No shell is
+    !! involved: every argument reaches the program exactly as given (quotes, semicolons,
+    !! `$(...)` included), and the program is found on PATH unless its name has a '/'.
+    !! Its standard output goes to the file `output` (created or truncated), or to this
+    !! process's standard error when `output` is "" (so that it never mixes with the
+    !! results on standard output). `exit_code`: the program's exit status, 128 + the
+    !! signal that ended it, or -1 when it did not run. Failure to start it or to open
+    !! `output` (not the program's own exit status): HOLOSYM_INVALID_ARGUMENT with the
+    !! program or file and the system's reason.
+    subroutine run_program(argv, output, exit_code, status)
+        type(text_t), intent(in) :: argv(:)           !! the program and its arguments
+        character(len=*), intent(in) :: output        !! file for its standard output, or ""
+        integer, intent(out) :: exit_code             !! its exit status
+        type(holosym_status_t), intent(out) :: status !! outcome of starting it
+        character(len=:), allocatable :: packed
+        integer(c_int) :: error, code, stage
+        integer :: k
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        exit_code = -1
+        if (size(argv) == 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = "run_program: no program given"
+            return
+        end if
+        packed = ""
+        do k = 1, size(argv)
+            if (index(argv(k)%text, c_null_char) > 0) then
+                status%code = HOLOSYM_INVALID_ARGUMENT
+                status%message = "argument " // int_text(k) // " of '" // argv(1)%text // &
+                    "' holds a NUL character"
+                return
+            end if
+            packed = packed // argv(k)%text // c_null_char
+        end do
+        ! Messages written so far come before the program's.
+        flush (error_unit, iostat=k)
+        error = c_run_program(packed, int(size(argv), c_int), c_text(output), code, stage)
+        exit_code = int(code)
+        if (error /= 0) then
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            select case (stage)
+            case (1)
+                status%message = "cannot open '" // output // "': " // error_text(int(error))
+            case (2)
+                status%message = "cannot run '" // argv(1)%text // "': " // &
+                    error_text(int(error))
+            case default
+                status%message = "waiting for '" // argv(1)%text // "' failed: " // &
+                    error_text(int(error))
+            end select
+        end if
+    end subroutine run_program
+
+    !> Append `text` to `list` (a program's arguments, a file's lines).
+    pure subroutine append_text(list, text)
+        type(text_t), allocatable, intent(inout) :: list(:) !! grows by one element
+        character(len=*), intent(in) :: text                !! the new last element
+        type(text_t), allocatable :: longer(:)
+        integer :: k
+        if (.not. allocated(list)) allocate (list(0))
+        allocate (longer(size(list) + 1))
+        do k = 1, size(list)
+            call move_alloc(list(k)%text, longer(k)%text)
+        end do
+        longer(size(longer))%text = text
+        call move_alloc(longer, list)
+    end subroutine append_text
+
+    !> A program and its arguments as one line for messages: arguments with characters
+    !! other than letters, digits and _./=:,+- shown in single quotes (for reading only:
+    !! `run_program` never hands this text to a shell).
+    pure function command_text(argv) result(text)
+        type(text_t), intent(in) :: argv(:) !! the program and its arguments
+        character(len=:), allocatable :: text
+        character(len=*), parameter :: plain = "abcdefghijklmnopqrstuvwxyz" // &
+            "ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_./=:,+-"
+        integer :: k, c
+        text = ""
+        do k = 1, size(argv)
+            if (k > 1) text = text // " "
+            if (len(argv(k)%text) > 0 .and. verify(argv(k)%text, plain) == 0) then
+                text = text // argv(k)%text
+            else
+                text = text // "'"
+                do c = 1, len(argv(k)%text)
+                    if (argv(k)%text(c:c) == "'") then
+                        text = text // "'\''"
+                    else
+                        text = text // argv(k)%text(c:c)
+                    end if
+                end do
+                text = text // "'"
+            end if
+        end do
+    end function command_text
+
+    !> Every line of the text file `path`, without line ends (a last line without its end
+    !! is kept). Failure (HOLOSYM_INVALID_ARGUMENT, naming the file and the line; `lines`
+    !! then empty): the file cannot be opened or read, a line holds a control character
+    !! other than a tab or a carriage return (a NUL from a device such as /dev/zero or
+    !! /dev/full, a binary file), or a line is longer than `max_line_length`.
+    !!
+    !! The bytes are read with stream access and checked as they come: a record-oriented
+    !! read would first look for the end of a line that a device never ends. A regular
+    !! file is read in blocks of its known size; anything else (a device, a pipe) byte by
+    !! byte, so that the first bad byte stops the reading.
+    subroutine read_text_file(path, lines, status)
+        character(len=*), intent(in) :: path                 !! the file
+        type(text_t), allocatable, intent(out) :: lines(:)   !! its lines
+        type(holosym_status_t), intent(out) :: status        !! outcome
+        integer, parameter :: block = 65536
+        character(len=block) :: chunk
+        character(len=256) :: message
+        character(len=:), allocatable :: line
+        type(text_t), allocatable :: grown(:)
+        integer(int64) :: file_size, done
+        integer :: unit, ios, count, n
+        logical :: exists
+        status%code = HOLOSYM_SUCCESS
+        status%message = ""
+        allocate (lines(0))
+        file_size = -1
+        inquire (file=path, exist=exists, size=file_size)
+        open (newunit=unit, file=path, status="old", action="read", access="stream", &
+              form="unformatted", iostat=ios, iomsg=message)
+        if (ios /= 0) then
+            call failed("cannot read '" // path // "': " // trim(message))
+            return
+        end if
+        allocate (grown(64))
+        count = 0
+        done = 0
+        line = ""
+        do
+            if (file_size > 0) then
+                if (done >= file_size) exit
+                n = int(min(int(block, int64), file_size - done))
+            else
+                n = 1
+            end if
+            read (unit, iostat=ios, iomsg=message) chunk(:n)
+            if (is_iostat_end(ios)) exit
+            if (ios /= 0) then
+                call failed("cannot read '" // path // "': line " // int_text(count + 1) // &
+                    ": " // trim(message))
+                close (unit)
+                return
+            end if
+            done = done + n
+            call take(chunk(:n))
+            if (.not. status%ok()) then
+                close (unit)
+                return
+            end if
+        end do
+        close (unit)
+        if (len(line) > 0) call append()
+        lines = grown(:count)
+    contains
+        !> Split bytes into lines, checking each piece.
+        subroutine take(text)
+            character(len=*), intent(in) :: text
+            integer :: first, end_of_line, last, bad
+            first = 1
+            do while (first <= len(text))
+                end_of_line = index(text(first:), new_line("a"))
+                last = len(text)
+                if (end_of_line > 0) last = first + end_of_line - 2
+                bad = verify_text(text(first:last))
+                if (bad > 0) then
+                    call failed(path // ": line " // int_text(count + 1) // ": not text " // &
+                        "(control character " // int_text(iachar(text(first + bad - 1: &
+                        first + bad - 1))) // " at column " // int_text(len(line) + bad) // ")")
+                    return
+                end if
+                if (len(line) + last - first + 1 > max_line_length) then
+                    call failed(path // ": line " // int_text(count + 1) // ": longer " // &
+                        "than " // int_text(max_line_length) // " characters")
+                    return
+                end if
+                line = line // text(first:last)
+                if (end_of_line == 0) exit
+                call append()
+                line = ""
+                first = last + 2
+            end do
+        end subroutine take
+        subroutine append()
+            type(text_t), allocatable :: larger(:)
+            integer :: k
+            if (count == size(grown)) then
+                allocate (larger(2 * size(grown)))
+                do k = 1, count
+                    call move_alloc(grown(k)%text, larger(k)%text)
+                end do
+                call move_alloc(larger, grown)
+            end if
+            count = count + 1
+            grown(count)%text = line
+        end subroutine append
+        subroutine failed(why)
+            character(len=*), intent(in) :: why
+            status%code = HOLOSYM_INVALID_ARGUMENT
+            status%message = why
+            if (allocated(lines)) deallocate (lines)
+            allocate (lines(0))
+        end subroutine failed
+    end subroutine read_text_file
+
+    !> Position of the first control character of `text` other than a tab or a carriage
+    !! return, 0 if none.
+    pure integer function verify_text(text) result(position)
+        character(len=*), intent(in) :: text
+        integer :: k, code
+        position = 0
+        do k = 1, len(text)
+            code = iachar(text(k:k))
+            if ((code < 32 .and. code /= 9 .and. code /= 13) .or. code == 127) then
+                position = k
+                return
+            end if
+        end do
+    end function verify_text
+
+    !> An integer as text.
+    pure function int_text(value) result(text)
+        integer, intent(in) :: value
+        character(len=:), allocatable :: text
+        character(len=16) :: buffer
+        write (buffer, '(i0)') value
+        text = trim(buffer)
+    end function int_text
+
+    !> The system's text for an errno value.
+    function error_text(error) result(text)
+        integer, intent(in) :: error !! errno value
+        character(len=:), allocatable :: text
+        character(kind=c_char, len=256) :: buffer
+        integer :: ends
+        buffer = ""
+        call c_error_text(int(error, c_int), buffer, int(len(buffer), c_int))
+        ends = index(buffer, c_null_char)
+        if (ends == 0) ends = len(buffer) + 1
+        text = buffer(:ends - 1)
+    end function error_text
+
+    !> Keep closed standard output and error from being reused by files, and make a
+    !! file-size limit fail a write instead of killing the process (see
+    !! holosym_keep_standard_streams): writes then fail visibly.
+    subroutine keep_standard_streams()
+        call c_keep_standard_streams()
+    end subroutine keep_standard_streams
+
+    !> `text` NUL-terminated for C.
+    pure function c_text(text) result(terminated)
+        character(len=*), intent(in) :: text
+        character(kind=c_char, len=len(text) + 1) :: terminated
+        terminated = text // c_null_char
+    end function c_text
+
+end module holosym_output
+
+!> Holds `not_installed`: fpm installs no module of a source with a submodule.
+submodule (holosym_output) holosym_output_app
+    implicit none
+contains
+    module procedure not_installed
+    end procedure not_installed
+end submodule holosym_output_app
