@@ -48,6 +48,7 @@ contains
             new_test("cli_states_file_with_header_h_and_T", cli_states_file), &
             new_test("cli_samples_one_file_per_trajectory", cli_samples), &
             new_test("cli_samples_identical_on_1_and_2_threads", cli_samples_threads), &
+            new_test("cli_failures_identical_on_1_and_2_threads", cli_failures_threads), &
             new_test("cli_kill_and_resume_equals_uninterrupted", cli_kill_and_resume), &
             new_test("cli_bad_states_files_refused", cli_bad_states), &
             new_test("cli_outputs_never_overwritten", cli_outputs_kept), &
@@ -452,6 +453,34 @@ contains
             end if
         end do
     end subroutine cli_samples_threads
+
+    !> 600 trajectories whose first step fails (h = 50 on the pendulum), on 2 threads three
+    !! times: the results file, messages included, equals the one written on 1 thread (the
+    !! workers build the same failure message at the same time).
+    subroutine cli_failures_threads(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        character(len=:), allocatable :: reference, name
+        integer :: run
+        character(len=*), parameter :: common = "--system pendulum --perturb 600 " // &
+            "--scale 0.01 --h 50 --T 100 --quiet --threads "
+        do run = 0, 3
+            name = scratch_path("ens_failures_t" // int_str(run) // ".csv")
+            call ensemble(common // int_str(min(run + 1, 2)) // " --output " // name, result)
+            call check(error, result%exit_code == 0, "run " // int_str(run) // ": " // &
+                errors_of(result))
+            if (allocated(error)) return
+            if (run == 0) then
+                reference = file_sha256(name)
+                call check(error, len(reference) == 64, "digest")
+                if (allocated(error)) return
+            else
+                call check(error, file_sha256(name) == reference, "2 threads, run " // &
+                    int_str(run) // ": results differ from those on 1 thread")
+                if (allocated(error)) return
+            end if
+        end do
+    end subroutine cli_failures_threads
 
     !> Kill a run (SIGKILL) after a few rows: every row kept is a row of the uninterrupted
     !! run; --resume computes the rest and leaves the same file, byte for byte.

@@ -15,8 +15,8 @@ module holosym_status
     implicit none
     private
 
-    public :: holosym_status_t, set_status, status_code_name, int_str, real_str, is_finite, &
-        is_nan
+    public :: holosym_status_t, set_status, status_code_name, int_str, int_len, real_str, &
+        real_field, is_finite, is_nan
 
     !> Success.
     integer, parameter, public :: HOLOSYM_SUCCESS = 0
@@ -134,32 +134,47 @@ contains
         is_nan = ieee_is_nan(value)
     end function is_nan
 
-    !> Decimal text of an integer, for messages.
-    pure function int_str(value) result(text)
+    !> Length of `int_str(value)`.
+    pure integer function int_len(value)
         integer, intent(in) :: value !! integer to format
-        character(len=:), allocatable :: text
         character(len=24) :: buffer
         write (buffer, '(i0)') value
-        text = trim(buffer)
+        int_len = len_trim(buffer)
+    end function int_len
+
+    !> `real_str(value)` left-adjusted in 48 characters.
+    pure function real_field(value) result(buffer)
+        real(wp), intent(in) :: value !! value to format
+        character(len=48) :: buffer
+        ! Non-finite values spelled alike by every compiler.
+        if (value /= value) then
+            buffer = "NaN"
+        else if (abs(value) > huge(value)) then
+            buffer = merge("Infinity ", "-Infinity", value > 0)
+        else
+            ! A four-digit exponent field: real128 exponents reach 4932.
+            write (buffer, '(es16.5e4)') value
+            buffer = adjustl(buffer)
+        end if
+    end function real_field
+
+    !> Decimal text of an integer, for messages.
+    !!
+    !! The text functions of this module have results of a computed length, never a
+    !! deferred one: gfortran (12) keeps the length of a deferred-length function result in
+    !! a static variable at each call site, so that two threads building a message at the
+    !! same place corrupt each other's text and the heap.
+    pure function int_str(value) result(text)
+        integer, intent(in) :: value !! integer to format
+        character(len=int_len(value)) :: text
+        write (text, '(i0)') value
     end function int_str
 
     !> Short scientific text of a real (any kind converted to wp), for messages.
     pure function real_str(value) result(text)
         real(wp), intent(in) :: value !! value to format
-        character(len=:), allocatable :: text
-        character(len=48) :: buffer
-        ! Non-finite values spelled alike by every compiler.
-        if (value /= value) then
-            text = "NaN"
-            return
-        else if (abs(value) > huge(value)) then
-            text = merge("Infinity ", "-Infinity", value > 0)
-            text = trim(text)
-            return
-        end if
-        ! A four-digit exponent field: real128 exponents reach 4932.
-        write (buffer, '(es16.5e4)') value
-        text = trim(adjustl(buffer))
+        character(len=len_trim(real_field(value))) :: text
+        text = real_field(value)
     end function real_str
 
 end module holosym_status

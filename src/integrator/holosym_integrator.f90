@@ -43,7 +43,8 @@
 module holosym_integrator
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+    use holosym_status, only: holosym_status_t, set_status, int_str, int_len, real_str, &
+        real_field, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
@@ -866,11 +867,11 @@ contains
         end select
     end subroutine verify_root
 
-    !> `yes` when `condition`, else `no`.
+    !> `yes` when `condition`, else `no` (a computed length: see `int_str`).
     pure function merge_text(condition, yes, no) result(text)
         logical, intent(in) :: condition
         character(len=*), intent(in) :: yes, no
-        character(len=:), allocatable :: text
+        character(len=merge(len(yes), len(no), condition)) :: text
         if (condition) then
             text = yes
         else
@@ -878,15 +879,26 @@ contains
         end if
     end function merge_text
 
-    !> "step with (M, N, G) = (2, 1, 3), h = 1.25000E-0001", for messages.
+    !> Length of `step_label` for these orders and h.
+    pure integer function label_length(order_m, order_n, gauss_points, h)
+        integer, intent(in) :: order_m, order_n, gauss_points
+        real(wp), intent(in) :: h
+        label_length = len("step with (M, N, G) = (, , ), h = ") + int_len(order_m) + &
+            int_len(order_n) + int_len(gauss_points) + len_trim(real_field(h))
+    end function label_length
+
+    !> "step with (M, N, G) = (2, 1, 3), h = 1.25000E-0001", for messages (a computed
+    !! length: see `int_str`).
     function step_label(self, h) result(text)
         class(constrained_integrator), intent(in) :: self
         real(wp), intent(in) :: h
-        character(len=:), allocatable :: text
+        character(len=label_length(self%scheme%order_m, self%scheme%order_n, &
+                                   self%scheme%gauss_points, h)) :: text
         text = "step with (M, N, G) = (" // int_str(self%scheme%order_m) // ", " // &
             int_str(self%scheme%order_n) // ", " // int_str(self%scheme%gauss_points) // &
             "), h = " // real_str(h)
     end function step_label
+
 
     !> Set the solved step of the last attempt aside.
     subroutine take_candidate(self, candidate)

@@ -29,8 +29,8 @@ module holosym_observers
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
-        HOLOSYM_SUCCESS, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_ARGUMENT, &
+    use holosym_status, only: holosym_status_t, set_status, int_str, int_len, real_str, &
+        is_finite, HOLOSYM_SUCCESS, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_NONFINITE_VALUE, HOLOSYM_NOT_INITIALIZED, &
         HOLOSYM_USER_ABORT
     use holosym_problem, only: constrained_hamiltonian
@@ -41,6 +41,10 @@ module holosym_observers
     private
 
     public :: trajectory_writer, energy_monitor, trajectory_header
+
+    !> The columns after the state in `trajectory_header`.
+    character(len=*), parameter :: header_tail = ",H,energy_error,constraint_residual," // &
+        "velocity_residual,newton_iterations"
 
     !> Significant digits of the writer: 17 (exact for real64) or 36 (exact for real128).
     integer, parameter :: short_digits = 17, long_digits = 36
@@ -204,32 +208,49 @@ contains
 
     ! ---------------------------------------------------------------- trajectory writer
 
+    !> Length of `trajectory_header(n, m)`.
+    pure integer function header_length(n, m)
+        integer, intent(in) :: n !! number of coordinates
+        integer, intent(in) :: m !! number of constraints
+        integer :: i
+        header_length = len("t") + len(header_tail)
+        do i = 1, max(n, 0)
+            header_length = header_length + 2 * (2 + int_len(i))
+        end do
+        do i = 1, max(m, 0)
+            header_length = header_length + 7 + int_len(i)
+        end do
+    end function header_length
+
     !> The CSV header for n coordinates and m constraints, e.g. for n = 3, m = 1:
     !! `t,q1,q2,q3,p1,p2,p3,lambda1,H,energy_error,constraint_residual,velocity_residual,`
-    !! `newton_iterations`.
+    !! `newton_iterations`. (A computed length, not a deferred one: see `int_str`.)
     pure function trajectory_header(n, m) result(header)
         integer, intent(in) :: n !! number of coordinates
         integer, intent(in) :: m !! number of constraints
-        character(len=:), allocatable :: header !! the header line
-        character(len=:), allocatable :: buffer, piece
-        integer :: i, used
-        ! Filled in place (appending name by name copies the line once per name).
-        allocate (character(len=(2 * max(n, 0) + max(m, 0)) * 18 + 80) :: buffer)
-        buffer(1:1) = "t"
+        character(len=header_length(n, m)) :: header !! the header line
+        integer :: i, k, used, name_length
+        character(len=7) :: name
+        header(1:1) = "t"
         used = 1
-        do i = 1, 2 * n + m
+        do i = 1, 2 * max(n, 0) + max(m, 0)
             if (i <= n) then
-                piece = ",q" // int_str(i)
+                name = ",q"
+                name_length = 2
+                k = i
             else if (i <= 2 * n) then
-                piece = ",p" // int_str(i - n)
+                name = ",p"
+                name_length = 2
+                k = i - n
             else
-                piece = ",lambda" // int_str(i - 2 * n)
+                name = ",lambda"
+                name_length = 7
+                k = i - 2 * n
             end if
-            buffer(used + 1:used + len(piece)) = piece
-            used = used + len(piece)
+            header(used + 1:used + name_length + int_len(k)) = name(:name_length) // int_str(k)
+            used = used + name_length + int_len(k)
         end do
-        header = buffer(:used) // ",H,energy_error,constraint_residual,velocity_residual," &
-            // "newton_iterations"
+        header(used + 1:) = header_tail
     end function trajectory_header
 
     !> Open the writer for a run of `sys` from (q, p): the CSV goes to `file` (replaced) or
@@ -502,20 +523,23 @@ contains
         ! Filled in place (appending field by field copies the line once per field).
         allocate (character(len=(size(q) + size(p) + size(lambda) + 6) * 50) :: line)
         used = 0
-        call put(field(t))
+        call put_real("", t)
         do i = 1, size(q)
-            call put("," // field(q(i)))
+            call put_real(",", q(i))
         end do
         do i = 1, size(p)
-            call put("," // field(p(i)))
+            call put_real(",", p(i))
         end do
         do i = 1, size(lambda)
-            call put("," // field(lambda(i)))
+            call put_real(",", lambda(i))
         end do
         energy_error = (energy - self%monitor%initial_energy) / self%monitor%energy_scale
         if (present(start_row)) energy_error = 0
-        call put("," // field(energy) // "," // field(energy_error) // "," // &
-            field(position) // "," // field(velocity) // "," // int_str(iterations))
+        call put_real(",", energy)
+        call put_real(",", energy_error)
+        call put_real(",", position)
+        call put_real(",", velocity)
+        call put("," // int_str(iterations))
         if (self%owns_unit) then
             call self%file%line(line(:used))
             if (self%file%failed()) then
@@ -534,13 +558,15 @@ contains
             end if
         end if
     contains
-        function field(value) result(text)
+        ! A subroutine, not a function of deferred length (see int_str): writers may run
+        ! on several threads.
+        subroutine put_real(separator, value)
+            character(len=*), intent(in) :: separator
             real(wp), intent(in) :: value
-            character(len=:), allocatable :: text
             character(len=48) :: buffer
             write (buffer, self%real_format) value
-            text = trim(adjustl(buffer))
-        end function field
+            call put(separator // trim(adjustl(buffer)))
+        end subroutine put_real
         subroutine put(text)
             character(len=*), intent(in) :: text
             line(used + 1:used + len(text)) = text
