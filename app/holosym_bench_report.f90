@@ -430,7 +430,7 @@ contains
                 mine = cheapest_long("holosym", trim(cases(c)), targets(t))
                 theirs = cheapest_long("heyoka", trim(cases(c)), targets(t))
                 line = "| " // field_of(cases(c), 1) // " | " // field_of(cases(c), 2) // &
-                    " | " // sci(targets(t)) // " | " // run_cells(mine) // run_cells(theirs)
+                    " | " // sci(targets(t)) // " |" // run_cells(mine) // run_cells(theirs)
                 if (mine > 0 .and. theirs > 0) then
                     line = line // " " // fixed(number(table, "seconds", theirs) / &
                         number(table, "seconds", mine)) // " |"
@@ -462,7 +462,7 @@ contains
             integer, intent(in) :: row
             character(len=:), allocatable :: text
             if (row == 0) then
-                text = "— | — | — | — | — |"
+                text = " — | — | — | — | — |"
                 return
             end if
             if (field(table, "method", row) == "heyoka") then
