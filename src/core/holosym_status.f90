@@ -15,8 +15,8 @@ module holosym_status
     implicit none
     private
 
-    public :: holosym_status_t, set_status, status_code_name, int_str, int_len, real_str, &
-        real_field, is_finite, is_nan
+    public :: holosym_status_t, set_status, status_code_name, code_name_field, int_str, &
+        int_len, real_str, real_field, is_finite, is_nan
 
     !> Success.
     integer, parameter, public :: HOLOSYM_SUCCESS = 0
@@ -96,10 +96,10 @@ contains
         end if
     end subroutine set_status
 
-    !> Short symbolic name of a status code, e.g. "singular matrix".
-    pure function status_code_name(code) result(name)
+    !> `status_code_name(code)` in 40 characters.
+    pure function code_name_field(code) result(name)
         integer, intent(in) :: code !! HOLOSYM_* code
-        character(len=:), allocatable :: name
+        character(len=40) :: name
         select case (code)
         case (HOLOSYM_SUCCESS);                    name = "success"
         case (HOLOSYM_INVALID_ORDER);              name = "invalid order parameters"
@@ -120,6 +120,13 @@ contains
         case (HOLOSYM_STEP_TOO_SMALL);             name = "step below the resolution of the state"
         case default;                              name = "unknown status"
         end select
+    end function code_name_field
+
+    !> Short symbolic name of a status code, e.g. "singular matrix".
+    pure function status_code_name(code) result(name)
+        integer, intent(in) :: code !! HOLOSYM_* code
+        character(len=len_trim(code_name_field(code))) :: name
+        name = code_name_field(code)
     end function status_code_name
 
     !> True when `value` is neither NaN nor infinite (never raises an IEEE exception).
@@ -160,8 +167,8 @@ contains
 
     !> Decimal text of an integer, for messages.
     !!
-    !! The text functions of this module have results of a computed length, never a
-    !! deferred one: gfortran (12) keeps the length of a deferred-length function result in
+    !! The text functions of this module (`status_code_name`, `int_str`, `real_str`) have
+    !! results of a computed length, never a deferred one: gfortran (12) keeps the length of a deferred-length function result in
     !! a static variable at each call site, so that two threads building a message at the
     !! same place corrupt each other's text and the heap.
     pure function int_str(value) result(text)
