@@ -168,9 +168,10 @@ contains
     !> Decimal text of an integer, for messages.
     !!
     !! The text functions of this module (`status_code_name`, `int_str`, `real_str`) have
-    !! results of a computed length, never a deferred one: gfortran (12) keeps the length of a deferred-length function result in
-    !! a static variable at each call site, so that two threads building a message at the
-    !! same place corrupt each other's text and the heap.
+    !! results of a computed length, never a deferred one: gfortran (12) keeps the length
+    !! of a deferred-length function result in a static variable at each call site, so
+    !! that two threads building a message at the same place corrupt each other's text
+    !! and the heap.
     pure function int_str(value) result(text)
         integer, intent(in) :: value !! integer to format
         character(len=int_len(value)) :: text

@@ -43,8 +43,7 @@
 module holosym_integrator
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: holosym_status_t, set_status, int_str, int_len, real_str, &
-        real_field, is_finite, &
+    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
@@ -790,6 +789,7 @@ contains
         real(wp) :: q_half(size(q)), p_half(size(p)), scale, distance(2)
         logical :: half_ok, have_second, second_suspicious, had_last
         integer :: chosen
+        character(len=:), allocatable :: message
 
         had_last = self%have_last
         call take_candidate(self, first)
@@ -849,51 +849,37 @@ contains
             call commit_step(self, sys, q, p, h, .true.)
             call set_status(status, HOLOSYM_SUCCESS, "")
         case default
-            call set_status(status, HOLOSYM_STEP_TOO_LARGE, step_label(self, h) // &
-                ": the step is too large for a unique solution: Newton's root changes " // &
-                "the energy by " // real_str(first%pending%energy_change) // " (relative; " // &
-                "checked above " // real_str(root_energy_change) // "), its momentum " // &
-                "polynomial misses the end momenta by " // &
-                real_str(first%pending%momentum_jump) // " (checked above " // &
-                real_str(root_momentum_jump) // ")" // merge_text(half_ok, " and it lies " // &
-                real_str(distance(1)) // " (relative) from two steps of h/2 (accepted " // &
-                "within " // real_str(root_distance) // ")", ", and two steps of h/2 fail") // &
-                merge_text(have_second, "; the root from the constant first guess " // &
-                "changes the energy by " // real_str(second%pending%energy_change) // &
-                merge_text(half_ok, " and lies " // real_str(distance(2)) // " from them", &
-                ""), "") // "; reduce h")
+            message = trim(step_label(self, h)) // ": the step is too large for a unique " // &
+                "solution: Newton's root changes the energy by " // &
+                real_str(first%pending%energy_change) // " (relative; checked above " // &
+                real_str(root_energy_change) // "), its momentum polynomial misses the end " // &
+                "momenta by " // real_str(first%pending%momentum_jump) // " (checked above " // &
+                real_str(root_momentum_jump) // ")"
+            if (half_ok) then
+                message = message // " and it lies " // real_str(distance(1)) // &
+                    " (relative) from two steps of h/2 (accepted within " // &
+                    real_str(root_distance) // ")"
+            else
+                message = message // ", and two steps of h/2 fail"
+            end if
+            if (have_second) then
+                message = message // "; the root from the constant first guess changes " // &
+                    "the energy by " // real_str(second%pending%energy_change)
+                if (half_ok) message = message // " and lies " // real_str(distance(2)) // &
+                    " from them"
+            end if
+            call set_status(status, HOLOSYM_STEP_TOO_LARGE, message // "; reduce h")
             ! The last accepted step stays the last step (its data were not touched).
             self%have_last = had_last
         end select
     end subroutine verify_root
 
-    !> `yes` when `condition`, else `no` (a computed length: see `int_str`).
-    pure function merge_text(condition, yes, no) result(text)
-        logical, intent(in) :: condition
-        character(len=*), intent(in) :: yes, no
-        character(len=merge(len(yes), len(no), condition)) :: text
-        if (condition) then
-            text = yes
-        else
-            text = no
-        end if
-    end function merge_text
-
-    !> Length of `step_label` for these orders and h.
-    pure integer function label_length(order_m, order_n, gauss_points, h)
-        integer, intent(in) :: order_m, order_n, gauss_points
-        real(wp), intent(in) :: h
-        label_length = len("step with (M, N, G) = (, , ), h = ") + int_len(order_m) + &
-            int_len(order_n) + int_len(gauss_points) + len_trim(real_field(h))
-    end function label_length
-
-    !> "step with (M, N, G) = (2, 1, 3), h = 1.25000E-0001", for messages (a computed
-    !! length: see `int_str`).
+    !> "step with (M, N, G) = (2, 1, 3), h = 1.25000E-0001", for messages, blank-padded:
+    !! call sites trim it (a fixed length, not a deferred one: see `int_str`).
     function step_label(self, h) result(text)
         class(constrained_integrator), intent(in) :: self
         real(wp), intent(in) :: h
-        character(len=label_length(self%scheme%order_m, self%scheme%order_n, &
-                                   self%scheme%gauss_points, h)) :: text
+        character(len=80) :: text
         text = "step with (M, N, G) = (" // int_str(self%scheme%order_m) // ", " // &
             int_str(self%scheme%order_n) // ", " // int_str(self%scheme%gauss_points) // &
             "), h = " // real_str(h)
@@ -952,8 +938,8 @@ contains
         limit = resolution_limit(self, sys, q, p)
         if (h < limit) then
             status%code = HOLOSYM_STEP_TOO_SMALL
-            status%message = step_label(self, h) // ": h is below the resolution of this " // &
-                "state: under about h = " // real_str(limit) // " the round-off of q " // &
+            status%message = trim(step_label(self, h)) // ": h is below the resolution " // &
+                "of this state: under about h = " // real_str(limit) // " the round-off of q " // &
                 "(epsilon |q|) divided by h exceeds Newton's stagnation level in the " // &
                 "momenta, so the step's equations cannot be solved; use h >= " // &
                 real_str(limit) // " (" // status%message // ")"
@@ -962,11 +948,12 @@ contains
         if (status%code == HOLOSYM_SINGULAR_MATRIX) then
             if (.not. rank_test(self, sys, q, message, dependence_threshold)) then
                 status%code = HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
-                status%message = step_label(self, h) // ": at the start of the step " // message
+                status%message = trim(step_label(self, h)) // ": at the start of the step " // &
+                    message
                 return
             else if (len(self%dependent_nodes) > 0) then
                 status%code = HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
-                status%message = step_label(self, h) // ": within the step (" // &
+                status%message = trim(step_label(self, h)) // ": within the step (" // &
                     self%dependent_nodes // "); the constraints become dependent"
                 return
             end if
@@ -979,7 +966,7 @@ contains
         code = probe_step(self, sys, q, p, h, ratio)
         if (code == HOLOSYM_NEWTON_DIVERGED) then
             status%code = HOLOSYM_STEP_TOO_LARGE
-            status%message = step_label(self, h) // ": the step is too large: its " // &
+            status%message = trim(step_label(self, h)) // ": the step is too large: its " // &
                 "equations overflow working precision at the first guess; reduce h (" // &
                 status%message // ")"
             return
@@ -1002,7 +989,7 @@ contains
                 if (code /= HOLOSYM_NEWTON_DIVERGED .and. smaller_ratio > 0 .and. &
                     smaller_ratio >= large_step_gain * ratio) then
                     status%code = HOLOSYM_STEP_TOO_LARGE
-                    status%message = step_label(self, h) // ": the step is too large: " // &
+                    status%message = trim(step_label(self, h)) // ": the step is too large: " // &
                         "the Newton matrix at the first guess has pivot ratio " // &
                         real_str(ratio) // " at h = " // real_str(probe_h) // " and " // &
                         real_str(smaller_ratio) // " at h/16 (at this h it is singular to " // &
@@ -1177,7 +1164,7 @@ contains
         self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + factorizations
         call count_evaluations()
         if (.not. status%ok()) then
-            status%message = step_label(self, h) // ": " // status%message
+            status%message = trim(step_label(self, h)) // ": " // status%message
             return
         end if
         self%pending%general = .true.
@@ -1338,7 +1325,7 @@ contains
         if (.not. status%ok()) then
             if (status%code == HOLOSYM_SINGULAR_MATRIX) &
                 call record_dependent_nodes(self, sys, q, .false.)
-            status%message = "reduced " // step_label(self, h) // ": " // status%message
+            status%message = "reduced " // trim(step_label(self, h)) // ": " // status%message
             self%have_last = .false.
             return
         end if
