@@ -8,9 +8,10 @@
 !! regular file to its device (fsync(2)) and checks close(2); the first failure is kept
 !! with its system error text.
 !!
-!! Input: `read_text_file` reads a whole text file, refusing what is not text (a NUL or
-!! other control byte, as /dev/zero or /dev/full give) and lines beyond `max_line_length`,
-!! so that no device or binary file makes a reader loop or exhaust memory.
+!! Input: `read_text_file` reads a whole text file with the library's `read_text_lines`,
+!! refusing what is not text (a NUL or other control byte, as /dev/zero or /dev/full give)
+!! and lines beyond 1 MiB, so that no device or binary file makes a reader loop or exhaust
+!! memory.
 !!
 !! Directories are created with mkdir(2), files removed with unlink(2) and other programs
 !! run with posix_spawnp(3) (`run_program`), never through a shell: a path or argument
@@ -18,25 +19,18 @@
 !! holosym_posix.c.
 module holosym_output
     use, intrinsic :: iso_c_binding, only: c_int, c_long, c_char, c_null_char
-    use, intrinsic :: iso_fortran_env, only: error_unit, int64
+    use, intrinsic :: iso_fortran_env, only: error_unit
     use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+    use holosym_text_file, only: text_t => text_line_t, read_text_lines, TEXT_NOT_ACCEPTED
     implicit none
     private
 
     public :: output_t, open_output, standard_output, make_directories, error_text
     public :: keep_standard_streams, remove_file, run_program, command_text, text_t
     public :: read_text_file, append_text
-    public :: max_line_length
 
     !> Bytes collected before a write(2).
     integer, parameter :: buffer_size = 65536
-    !> Longest line `read_text_file` accepts (1 MiB).
-    integer, parameter :: max_line_length = 1048576
-
-    !> A piece of text of any length: a line of a file, or an argument of a program.
-    type :: text_t
-        character(len=:), allocatable :: text !! the text
-    end type text_t
 
     !> A text output: standard output or a file opened by `open_output`.
     type :: output_t
@@ -351,129 +345,25 @@ contains
     !! is kept). Failure (HOLOSYM_INVALID_ARGUMENT, naming the file and the line; `lines`
     !! then empty): the file cannot be opened or read, a line holds a control character
     !! other than a tab or a carriage return (a NUL from a device such as /dev/zero or
-    !! /dev/full, a binary file), or a line is longer than `max_line_length`.
-    !!
-    !! The bytes are read with stream access and checked as they come: a record-oriented
-    !! read would first look for the end of a line that a device never ends. A regular
-    !! file is read in blocks of its known size; anything else (a device, a pipe) byte by
-    !! byte, so that the first bad byte stops the reading.
+    !! /dev/full, a binary file), or a line is longer than 1 MiB. The reading is the
+    !! library's `read_text_lines` (holosym_text_file); this adds the file to its message.
     subroutine read_text_file(path, lines, status)
         character(len=*), intent(in) :: path                 !! the file
         type(text_t), allocatable, intent(out) :: lines(:)   !! its lines
         type(holosym_status_t), intent(out) :: status        !! outcome
-        integer, parameter :: block = 65536
-        character(len=block) :: chunk
-        character(len=256) :: message
-        character(len=:), allocatable :: line
-        type(text_t), allocatable :: grown(:)
-        integer(int64) :: file_size, done
-        integer :: unit, ios, count, n
-        logical :: exists
+        character(len=:), allocatable :: message
+        integer :: ios
         status%code = HOLOSYM_SUCCESS
         status%message = ""
-        allocate (lines(0))
-        file_size = -1
-        inquire (file=path, exist=exists, size=file_size)
-        open (newunit=unit, file=path, status="old", action="read", access="stream", &
-              form="unformatted", iostat=ios, iomsg=message)
-        if (ios /= 0) then
-            call failed("cannot read '" // path // "': " // trim(message))
-            return
+        call read_text_lines(path, lines, ios, message)
+        if (ios == 0) return
+        status%code = HOLOSYM_INVALID_ARGUMENT
+        if (ios == TEXT_NOT_ACCEPTED) then
+            status%message = path // ": " // message
+        else
+            status%message = "cannot read '" // path // "': " // message
         end if
-        allocate (grown(64))
-        count = 0
-        done = 0
-        line = ""
-        do
-            if (file_size > 0) then
-                if (done >= file_size) exit
-                n = int(min(int(block, int64), file_size - done))
-            else
-                n = 1
-            end if
-            read (unit, iostat=ios, iomsg=message) chunk(:n)
-            if (is_iostat_end(ios)) exit
-            if (ios /= 0) then
-                call failed("cannot read '" // path // "': line " // int_text(count + 1) // &
-                    ": " // trim(message))
-                close (unit)
-                return
-            end if
-            done = done + n
-            call take(chunk(:n))
-            if (.not. status%ok()) then
-                close (unit)
-                return
-            end if
-        end do
-        close (unit)
-        if (len(line) > 0) call append()
-        lines = grown(:count)
-    contains
-        !> Split bytes into lines, checking each piece.
-        subroutine take(text)
-            character(len=*), intent(in) :: text
-            integer :: first, end_of_line, last, bad
-            first = 1
-            do while (first <= len(text))
-                end_of_line = index(text(first:), new_line("a"))
-                last = len(text)
-                if (end_of_line > 0) last = first + end_of_line - 2
-                bad = verify_text(text(first:last))
-                if (bad > 0) then
-                    call failed(path // ": line " // int_text(count + 1) // ": not text " // &
-                        "(control character " // int_text(iachar(text(first + bad - 1: &
-                        first + bad - 1))) // " at column " // int_text(len(line) + bad) // ")")
-                    return
-                end if
-                if (len(line) + last - first + 1 > max_line_length) then
-                    call failed(path // ": line " // int_text(count + 1) // ": longer " // &
-                        "than " // int_text(max_line_length) // " characters")
-                    return
-                end if
-                line = line // text(first:last)
-                if (end_of_line == 0) exit
-                call append()
-                line = ""
-                first = last + 2
-            end do
-        end subroutine take
-        subroutine append()
-            type(text_t), allocatable :: larger(:)
-            integer :: k
-            if (count == size(grown)) then
-                allocate (larger(2 * size(grown)))
-                do k = 1, count
-                    call move_alloc(grown(k)%text, larger(k)%text)
-                end do
-                call move_alloc(larger, grown)
-            end if
-            count = count + 1
-            grown(count)%text = line
-        end subroutine append
-        subroutine failed(why)
-            character(len=*), intent(in) :: why
-            status%code = HOLOSYM_INVALID_ARGUMENT
-            status%message = why
-            if (allocated(lines)) deallocate (lines)
-            allocate (lines(0))
-        end subroutine failed
     end subroutine read_text_file
-
-    !> Position of the first control character of `text` other than a tab or a carriage
-    !! return, 0 if none.
-    pure integer function verify_text(text) result(position)
-        character(len=*), intent(in) :: text
-        integer :: k, code
-        position = 0
-        do k = 1, len(text)
-            code = iachar(text(k:k))
-            if ((code < 32 .and. code /= 9 .and. code /= 13) .or. code == 127) then
-                position = k
-                return
-            end if
-        end do
-    end function verify_text
 
     !> An integer as text.
     pure function int_text(value) result(text)

@@ -4,8 +4,9 @@
 !! in quadruple precision. The other modules are internal: the public entities users need
 !! are re-exported here, and the pages of the modules that define them document them.
 !! Left out on purpose: the message helpers of holosym_status (`set_status`, `int_str`,
-!! `real_str`, `is_finite`), the CSV helpers of holosym_ensemble_files (`parse_csv_fields`,
-!! `csv_text_t`), `sorted_order` of holosym_ensemble and the kernel modules of the schemes.
+!! `real_str`, `is_finite`), the CSV helper `parse_csv_fields` of holosym_ensemble_files,
+!! the text files of holosym_text_file (`text_file_t`, `read_text_lines`), `sorted_order`
+!! of holosym_ensemble and the kernel modules of the schemes.
 !!
 !! - [[holosym_kinds:wp]], `dp`, `wp_is_double`: the working kind (real128, or real64 with
 !!   `-DHOLOSYM_REAL64`), real64, and whether they are the same.

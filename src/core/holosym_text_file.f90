@@ -8,13 +8,32 @@
 !!
 !! The C library does not give its error number to Fortran portably, so a failure says
 !! which file and which operation, not the system's reason.
+!!
+!! Text files are read by `read_text_lines`, which refuses what is not text (a NUL or
+!! other control byte, as /dev/zero or /dev/full give) and lines beyond
+!! `max_text_line_length`, so that no input can make a reader loop or exhaust memory.
 module holosym_text_file
     use, intrinsic :: iso_c_binding, only: c_ptr, c_null_ptr, c_associated, c_char, c_int, &
         c_size_t, c_null_char
+    use, intrinsic :: iso_fortran_env, only: int64
+    use holosym_status, only: int_str
     implicit none
     private
 
-    public :: text_file_t
+    public :: text_file_t, text_line_t, read_text_lines, max_text_line_length
+    public :: TEXT_CANNOT_OPEN, TEXT_CANNOT_READ, TEXT_NOT_ACCEPTED
+
+    !> Longest line `read_text_lines` accepts (1 MiB).
+    integer, parameter :: max_text_line_length = 1048576
+
+    !> Failures of `read_text_lines` (its `ios`): the file cannot be opened, a read failed,
+    !! or the content is refused (not text, or a line too long).
+    integer, parameter :: TEXT_CANNOT_OPEN = 1, TEXT_CANNOT_READ = 2, TEXT_NOT_ACCEPTED = 3
+
+    !> One line of a text file.
+    type :: text_line_t
+        character(len=:), allocatable :: text
+    end type text_line_t
 
     !> A text file open for writing; the first failure is kept.
     type :: text_file_t
@@ -136,5 +155,133 @@ contains
         text_failed = .false.
         if (allocated(self%failure)) text_failed = len(self%failure) > 0
     end function text_failed
+
+    !> Every line of the text file `path`. `ios` is 0, or TEXT_CANNOT_OPEN (`message`: the
+    !! system's reason), TEXT_CANNOT_READ ("line N: reason") or TEXT_NOT_ACCEPTED ("line N:
+    !! not text (control character C at column K)" for a control byte other than a tab or
+    !! a carriage return, "line N: longer than L characters"); `lines` is then empty. A
+    !! last line without its end of line (a write cut short) is kept.
+    !!
+    !! The bytes are read with stream access and checked as they come: a record-oriented
+    !! read would first look for the end of a line that a device never ends. A regular
+    !! file is read in blocks of its known size; anything else (a device, a pipe) byte by
+    !! byte, so that the first bad byte stops the reading.
+    subroutine read_text_lines(path, lines, ios, message)
+        character(len=*), intent(in) :: path                     !! the file
+        type(text_line_t), allocatable, intent(out) :: lines(:)  !! its lines
+        integer, intent(out) :: ios                              !! 0 or TEXT_*
+        character(len=:), allocatable, intent(out) :: message    !! "" or why it failed
+        integer, parameter :: block = 65536
+        character(len=block) :: chunk
+        character(len=256) :: io_message
+        character(len=:), allocatable :: line
+        type(text_line_t), allocatable :: kept(:)
+        integer(int64) :: file_size, done
+        integer :: unit, count, n, read_status
+        logical :: exists
+        allocate (lines(0), kept(64))
+        count = 0
+        ios = 0
+        message = ""
+        file_size = -1
+        inquire (file=path, exist=exists, size=file_size)
+        open (newunit=unit, file=path, status="old", action="read", access="stream", &
+              form="unformatted", iostat=read_status, iomsg=io_message)
+        if (read_status /= 0) then
+            call fail(TEXT_CANNOT_OPEN, trim(io_message))
+            return
+        end if
+        done = 0
+        line = ""
+        do
+            if (file_size > 0) then
+                if (done >= file_size) exit
+                n = int(min(int(block, int64), file_size - done))
+            else
+                n = 1
+            end if
+            read (unit, iostat=read_status, iomsg=io_message) chunk(:n)
+            if (is_iostat_end(read_status)) exit
+            if (read_status /= 0) then
+                call fail(TEXT_CANNOT_READ, "line " // int_str(count + 1) // ": " // &
+                    trim(io_message))
+                close (unit)
+                return
+            end if
+            done = done + n
+            call take(chunk(:n))
+            if (ios /= 0) then
+                close (unit)
+                return
+            end if
+        end do
+        close (unit)
+        if (len(line) > 0) call keep()
+        lines = kept(:count)
+    contains
+        !> Split bytes into lines, checking each piece.
+        subroutine take(text)
+            character(len=*), intent(in) :: text
+            integer :: first, end_of_line, last, bad
+            first = 1
+            do while (first <= len(text))
+                end_of_line = index(text(first:), new_line("a"))
+                last = len(text)
+                if (end_of_line > 0) last = first + end_of_line - 2
+                bad = control_position(text(first:last))
+                if (bad > 0) then
+                    call fail(TEXT_NOT_ACCEPTED, "line " // int_str(count + 1) // &
+                        ": not text (control character " // &
+                        int_str(iachar(text(first + bad - 1:first + bad - 1))) // &
+                        " at column " // int_str(len(line) + bad) // ")")
+                    return
+                end if
+                if (len(line) + last - first + 1 > max_text_line_length) then
+                    call fail(TEXT_NOT_ACCEPTED, "line " // int_str(count + 1) // &
+                        ": longer than " // int_str(max_text_line_length) // " characters")
+                    return
+                end if
+                line = line // text(first:last)
+                if (end_of_line == 0) exit
+                call keep()
+                line = ""
+                first = last + 2
+            end do
+        end subroutine take
+        subroutine keep()
+            type(text_line_t), allocatable :: larger(:)
+            integer :: k
+            if (count == size(kept)) then
+                allocate (larger(2 * size(kept)))
+                do k = 1, count
+                    call move_alloc(kept(k)%text, larger(k)%text)
+                end do
+                call move_alloc(larger, kept)
+            end if
+            count = count + 1
+            kept(count)%text = line
+        end subroutine keep
+        subroutine fail(code, why)
+            integer, intent(in) :: code
+            character(len=*), intent(in) :: why
+            ios = code
+            message = why
+        end subroutine fail
+    end subroutine read_text_lines
+
+    !> Position of the first control character of `text` other than a tab or a carriage
+    !! return, 0 if none.
+    pure integer function control_position(text) result(position)
+        character(len=*), intent(in) :: text
+        integer :: k, code
+        position = 0
+        do k = 1, len(text)
+            code = iachar(text(k:k))
+            if ((code < 32 .and. code /= 9 .and. code /= 13) .or. code == 127) then
+                position = k
+                return
+            end if
+        end do
+    end function control_position
 
 end module holosym_text_file

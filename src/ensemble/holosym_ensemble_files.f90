@@ -22,7 +22,7 @@
 !! gfortran 12, and stop the program in LLVM flang), and each write closes its file, so a
 !! write that does not reach the file stops the run with HOLOSYM_INVALID_ARGUMENT. Files
 !! read (states, a results file to resume) must be text: a control byte or a line beyond
-!! `max_line_length` is refused, so that a device such as /dev/zero cannot make the
+!! `max_text_line_length` (holosym_text_file) is refused, so that a device such as /dev/zero cannot make the
 !! reader loop.
 module holosym_ensemble_files
     use, intrinsic :: iso_fortran_env, only: int64
@@ -32,24 +32,17 @@ module holosym_ensemble_files
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_ensemble, only: ensemble_states_t, ensemble_result_t, ensemble_sink, &
         sorted_order, samples_failure
-    use holosym_text_file, only: text_file_t
+    use holosym_text_file, only: text_file_t, text_line_t, read_text_lines
     implicit none
     private
 
     public :: read_ensemble_states, ensemble_csv_sink, result_header, result_row, &
-        samples_header, parse_csv_fields, csv_text_t, seconds_text
+        samples_header, parse_csv_fields, seconds_text
 
     !> Format of a real field: 36 significant digits round-trip a real128 exactly.
     character(len=*), parameter :: real_format = '(es44.35e4)'
     !> Longest integer accepted in a CSV field (more digits overflow the default integer).
     integer, parameter :: max_integer_digits = 9
-    !> Longest line of a file read here (1 MiB).
-    integer, parameter :: max_line_length = 1048576
-
-    !> One piece of text (a line or a field).
-    type :: csv_text_t
-        character(len=:), allocatable :: text !! the text
-    end type csv_text_t
 
     !> Writes the results file, the timing log and the samples of an ensemble run.
     type, extends(ensemble_sink) :: ensemble_csv_sink
@@ -107,7 +100,7 @@ contains
         type(ensemble_states_t), intent(inout) :: states   !! the states read
         type(holosym_status_t), intent(out), optional :: status !! outcome
         type(ensemble_states_t) :: read
-        type(csv_text_t), allocatable :: lines(:), fields(:)
+        type(text_line_t), allocatable :: lines(:), fields(:)
         integer, allocatable :: line_of(:), order(:)
         character(len=:), allocatable :: message
         integer :: ios, i, k, rows, width, first_data, j
@@ -215,7 +208,7 @@ contains
         end subroutine fail
 
         logical function header_matches(names)
-            type(csv_text_t), intent(in) :: names(:)
+            type(text_line_t), intent(in) :: names(:)
             integer :: c
             header_matches = size(names) >= 2 * n + 1 .and. size(names) <= 2 * n + 3
             if (.not. header_matches) return
@@ -254,7 +247,7 @@ contains
     !! is 1 when a quote is not closed (a line cut short), else 0.
     subroutine parse_csv_fields(line, fields, ios)
         character(len=*), intent(in) :: line                    !! the line
-        type(csv_text_t), allocatable, intent(out) :: fields(:) !! its fields
+        type(text_line_t), allocatable, intent(out) :: fields(:) !! its fields
         integer, intent(out) :: ios                             !! 0, or 1 for an open quote
         character(len=:), allocatable :: field
         logical :: quoted, was_quoted
@@ -295,9 +288,9 @@ contains
     contains
         subroutine finish_field()
             if (was_quoted) then
-                fields = [fields, csv_text_t(field)]
+                fields = [fields, text_line_t(field)]
             else
-                fields = [fields, csv_text_t(trim(adjustl(field)))]
+                fields = [fields, text_line_t(trim(adjustl(field)))]
             end if
             field = ""
             was_quoted = .false.
@@ -365,123 +358,6 @@ contains
             end do
         end function count_digits
     end function decimal_field
-
-    !> Every line of a text file, up to `max_line_length` characters. A control character
-    !! other than a tab or a carriage return (as devices like /dev/zero give), a longer
-    !! line or a read error gives ios /= 0 and a message naming the line. The bytes are
-    !! read with stream access and checked as they come (a record-oriented read would
-    !! first look for the end of a line that a device never ends): a regular file in
-    !! blocks of its known size, anything else byte by byte.
-    subroutine read_text_lines(path, lines, ios, message)
-        character(len=*), intent(in) :: path
-        type(csv_text_t), allocatable, intent(out) :: lines(:)
-        integer, intent(out) :: ios
-        character(len=:), allocatable, intent(out) :: message
-        integer, parameter :: block = 65536
-        character(len=block) :: chunk
-        character(len=256) :: io_message
-        character(len=:), allocatable :: line
-        type(csv_text_t), allocatable :: kept(:)
-        integer(int64) :: file_size, done
-        integer :: unit, count, n
-        logical :: exists
-        allocate (lines(0), kept(64))
-        count = 0
-        message = ""
-        file_size = -1
-        inquire (file=path, exist=exists, size=file_size)
-        open (newunit=unit, file=path, status="old", action="read", access="stream", &
-              form="unformatted", iostat=ios, iomsg=io_message)
-        if (ios /= 0) then
-            message = trim(io_message)
-            return
-        end if
-        done = 0
-        line = ""
-        do
-            if (file_size > 0) then
-                if (done >= file_size) exit
-                n = int(min(int(block, int64), file_size - done))
-            else
-                n = 1
-            end if
-            read (unit, iostat=ios, iomsg=io_message) chunk(:n)
-            if (is_iostat_end(ios)) exit
-            if (ios /= 0) then
-                message = "line " // int_str(count + 1) // ": " // trim(io_message)
-                close (unit)
-                return
-            end if
-            done = done + n
-            call take(chunk(:n))
-            if (ios /= 0) then
-                close (unit)
-                return
-            end if
-        end do
-        ios = 0
-        close (unit)
-        ! A last line without its end of line (a write cut short) is kept.
-        if (len(line) > 0) call keep()
-        call move_alloc(kept, lines)
-        lines = lines(:count)
-    contains
-        !> Split bytes into lines, checking each piece; ios = 1 and `message` on a fault.
-        subroutine take(text)
-            character(len=*), intent(in) :: text
-            integer :: first, end_of_line, last
-            first = 1
-            do while (first <= len(text))
-                end_of_line = index(text(first:), new_line("a"))
-                last = len(text)
-                if (end_of_line > 0) last = first + end_of_line - 2
-                if (.not. is_text(text(first:last))) then
-                    message = "line " // int_str(count + 1) // " is not text (a " // &
-                        "control character)"
-                    ios = 1
-                    return
-                end if
-                if (len(line) + last - first + 1 > max_line_length) then
-                    message = "line " // int_str(count + 1) // " is longer than " // &
-                        int_str(max_line_length) // " characters"
-                    ios = 1
-                    return
-                end if
-                line = line // text(first:last)
-                if (end_of_line == 0) exit
-                call keep()
-                line = ""
-                first = last + 2
-            end do
-        end subroutine take
-        subroutine keep()
-            type(csv_text_t), allocatable :: larger(:)
-            integer :: k
-            if (count == size(kept)) then
-                allocate (larger(2 * size(kept)))
-                do k = 1, count
-                    call move_alloc(kept(k)%text, larger(k)%text)
-                end do
-                call move_alloc(larger, kept)
-            end if
-            count = count + 1
-            kept(count)%text = line
-        end subroutine keep
-    end subroutine read_text_lines
-
-    !> No control character but tabs and carriage returns.
-    pure logical function is_text(text)
-        character(len=*), intent(in) :: text
-        integer :: k, code
-        is_text = .true.
-        do k = 1, len(text)
-            code = iachar(text(k:k))
-            if ((code < 32 .and. code /= 9 .and. code /= 13) .or. code == 127) then
-                is_text = .false.
-                return
-            end if
-        end do
-    end function is_text
 
     !> Append `separator` and a real as a CSV field (36 significant digits, no blanks) to
     !! `line`.
@@ -571,7 +447,7 @@ contains
     !! naming the file.
     subroutine write_checked(path, lines, mode, message)
         character(len=*), intent(in) :: path          !! the file
-        type(csv_text_t), intent(in) :: lines(:)      !! lines, without their ends
+        type(text_line_t), intent(in) :: lines(:)      !! lines, without their ends
         character(len=*), intent(in) :: mode          !! "new", "replace" or "append"
         character(len=:), allocatable, intent(out) :: message !! "" or the failure
         type(text_file_t) :: file
@@ -611,7 +487,7 @@ contains
         logical, intent(in) :: resume               !! reopen an existing file
         logical, allocatable, intent(out) :: skip(:) !! trajectories with a row already
         type(holosym_status_t), intent(out) :: status !! outcome
-        type(csv_text_t), allocatable :: lines(:), fields(:), first_lines(:)
+        type(text_line_t), allocatable :: lines(:), fields(:), first_lines(:)
         character(len=:), allocatable :: message, temporary
         integer, allocatable :: order(:)
         integer :: ios, i, id, position, kept
@@ -781,7 +657,7 @@ contains
         logical, intent(inout) :: halt                  !! set on a write failure
         character(len=32) :: rate_text, left_text
         character(len=:), allocatable :: message
-        type(csv_text_t), allocatable :: row(:)
+        type(text_line_t), allocatable :: row(:)
         integer(int64) :: clock_now
         real(wp) :: elapsed, rate
 
@@ -865,7 +741,7 @@ contains
         type(ensemble_result_t), intent(in) :: result !! the trajectory with its samples
         type(holosym_status_t), intent(out) :: status !! outcome
         character(len=:), allocatable :: path, temporary, line, message
-        type(csv_text_t), allocatable :: lines(:)
+        type(text_line_t), allocatable :: lines(:)
         integer :: j, i
 
         call set_status(status, HOLOSYM_SUCCESS, "")
@@ -906,7 +782,7 @@ contains
     subroutine sink_finish(self, status)
         class(ensemble_csv_sink), intent(inout) :: self !! the sink
         type(holosym_status_t), intent(out) :: status   !! outcome
-        type(csv_text_t), allocatable :: lines(:), fields(:)
+        type(text_line_t), allocatable :: lines(:), fields(:)
         character(len=:), allocatable :: message, temporary
         integer, allocatable :: keys(:), order(:)
         integer :: ios, i
