@@ -25,7 +25,7 @@ module holosym_bench_long
     use holosym_systems, only: make_system
     use holosym_cli_common, only: fail, csv_real
     use holosym_output, only: output_t, open_output, remove_file, run_program, &
-        command_text, text_t, read_text_file, append_text
+        command_text, text_t, read_text_file, append_text, write_lines
     implicit none
     private
 
@@ -151,7 +151,7 @@ contains
         reference_path = dir // "/long_reference.csv"
         allocate (lines(0))
         call append_text(lines, long_header)
-        call write_text(out_path, lines, status)
+        call write_lines(out_path, lines, status)
         if (.not. status%ok()) return
         do c = 1, size(systems)
             if (quick .and. c == 2) cycle
@@ -222,7 +222,7 @@ contains
                 csv_real(error) // "," // csv_real(monitor%max_phi) // "," // &
                 csv_real(monitor%max_hidden) // "," // csv_real(monitor%energy_error) // "," &
                 // csv_real(real(seconds, wp)) // ",0," // int_str(run_status%code))
-            call write_text(out_path, lines, status)
+            call write_lines(out_path, lines, status)
         end subroutine record
 
         !> heyoka's long runs of a case: tools/heyoka_bench.py (no shell) writes its rows
@@ -286,7 +286,7 @@ contains
             do row = 2, size(part_lines)
                 call append_text(lines, part_lines(row)%text)
             end do
-            call write_text(out_path, lines, status)
+            call write_lines(out_path, lines, status)
             if (status%ok()) call remove_file(part, status)
         end subroutine heyoka_long
 
@@ -324,21 +324,6 @@ contains
         end do
         call file%close(status)
     end subroutine write_reference
-
-    !> Write `lines` to `path` (replaced) through `output_t`.
-    subroutine write_text(path, lines, status)
-        character(len=*), intent(in) :: path
-        type(text_t), intent(in) :: lines(:)
-        type(holosym_status_t), intent(inout) :: status
-        type(output_t) :: file
-        integer :: k
-        call open_output(path, file, status)
-        if (.not. status%ok()) return
-        do k = 1, size(lines)
-            call file%line(lines(k)%text)
-        end do
-        call file%close(status)
-    end subroutine write_text
 
     !> Commas in a line.
     pure integer function count_commas(line)

@@ -28,7 +28,7 @@ module holosym_cli_bench
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
     use holosym_systems, only: make_system, system_choices, max_links
     use holosym_output, only: output_t, open_output, make_directories, remove_file, &
-        run_program, command_text, text_t, read_text_file, append_text
+        run_program, command_text, text_t, read_text_file, append_text, write_lines
     use holosym_bench_scaling, only: scaling_point, scaling_links, scaling_header, &
         general_links_limit
     use holosym_bench_long, only: run_long
@@ -678,22 +678,6 @@ contains
             end if
         end do
     end function position_of
-
-    !> Write `lines` to `path` (replaced) through `output_t`. Failure:
-    !! HOLOSYM_INVALID_ARGUMENT naming the file and the system's reason.
-    subroutine write_lines(path, lines, status)
-        character(len=*), intent(in) :: path
-        type(text_t), intent(in) :: lines(:)
-        type(holosym_status_t), intent(inout) :: status
-        type(output_t) :: file
-        integer :: k
-        call open_output(path, file, status)
-        if (.not. status%ok()) return
-        do k = 1, size(lines)
-            call file%line(lines(k)%text)
-        end do
-        call file%close(status)
-    end subroutine write_lines
 
     !> Run the benchmark.
     subroutine run_bench(options, err_unit, rows, steps_rows, status)

@@ -13,7 +13,7 @@ module holosym_cli_common
 
     public :: cli_argument_t, command_arguments
     public :: split_option, option_value, parse_integer, parse_integer_in, parse_real
-    public :: fail, csv_real, csv_integer, join_lines, parsed_command_proceeds
+    public :: fail, csv_real, csv_integer, join_lines, parsed_command_proceeds, default_orders
 
     !> Exit code of a successful command.
     integer, parameter, public :: EXIT_OK = 0
@@ -341,6 +341,28 @@ contains
         status%code = HOLOSYM_INVALID_ARGUMENT
         status%message = message
     end subroutine fail
+
+    !> The orders not given on the command line, N = M - 1 and G = max(M, N) + 1, then
+    !! G >= N + 1 checked (the step is singular for every system otherwise), the message
+    !! naming the defaults taken.
+    pure subroutine default_orders(order_m, order_n, gauss_points, n_given, g_given, status)
+        integer, intent(in) :: order_m                  !! M
+        integer, intent(inout) :: order_n               !! N (set unless given)
+        integer, intent(inout) :: gauss_points          !! G (set unless given)
+        logical, intent(in) :: n_given, g_given         !! whether --N and --G were given
+        type(holosym_status_t), intent(inout) :: status !! set on failure
+        if (.not. n_given) order_n = order_m - 1
+        if (.not. g_given) gauss_points = max(order_m, order_n) + 1
+        if (gauss_points >= order_n + 1) return
+        if (n_given) then
+            call fail(status, "options --G and --N: G = " // int_str(gauss_points) // &
+                " must be at least N + 1 = " // int_str(order_n + 1))
+        else
+            call fail(status, "option --G: G = " // int_str(gauss_points) // &
+                " must be at least N + 1 = " // int_str(order_n + 1) // &
+                " (N is M - 1 when --N is not given)")
+        end if
+    end subroutine default_orders
 
     !> A real as a CSV field: scientific notation with 36 significant digits (exact for
     !! real128), no blanks, e.g. "-3.33333333333333333333333333333333317E-0001".

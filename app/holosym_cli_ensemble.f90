@@ -21,7 +21,7 @@ module holosym_cli_ensemble
     use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
     use holosym_cli_common, only: parsed_command_proceeds, cli_argument_t, split_option, &
         option_value, parse_integer, parse_integer_in, parse_real, fail, csv_real, &
-        join_lines, EXIT_OK, EXIT_FAILURE
+        join_lines, default_orders, EXIT_OK, EXIT_FAILURE
     use holosym_output, only: output_t, make_directories
     implicit none
     private
@@ -208,19 +208,10 @@ contains
             end select
             i = i + 1
         end do
-        if (.not. n_given) config%order_n = config%order_m - 1
-        if (.not. g_given) config%gauss_points = max(config%order_m, config%order_n) + 1
-        if (config%gauss_points < config%order_n + 1) then
-            ! Singular for every system: say so here, naming the defaults taken.
-            if (n_given) then
-                call fail(status, "options --G and --N: G = " // int_str(config%gauss_points) &
-                    // " must be at least N + 1 = " // int_str(config%order_n + 1))
-            else
-                call fail(status, "option --G: G = " // int_str(config%gauss_points) // &
-                    " must be at least N + 1 = " // int_str(config%order_n + 1) // &
-                    " (N is M - 1 when --N is not given)")
-            end if
-        else if (.not. steps_fit(config%final_time, config%step_size)) then
+        call default_orders(config%order_m, config%order_n, config%gauss_points, n_given, &
+                            g_given, status)
+        if (.not. status%ok()) return
+        if (.not. steps_fit(config%final_time, config%step_size)) then
             call fail(status, "options --T and --h: T/h must give 1 to " // &
                 int_str(huge(1)) // " steps (or T = 0)")
         else if (len(config%states) > 0 .eqv. config%perturb > 0) then

@@ -20,7 +20,8 @@ module holosym_cli_simulate
     use holosym_output, only: output_t, open_output
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
-        parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE, EXIT_USAGE
+        parse_real, fail, csv_real, csv_integer, join_lines, default_orders, EXIT_OK, &
+        EXIT_FAILURE, EXIT_USAGE
     implicit none
     private
 
@@ -258,20 +259,9 @@ contains
             call fail(status, "option --links needs --system chain")
             return
         end if
-        if (.not. n_given) config%order_n = config%order_m - 1
-        if (.not. g_given) config%gauss_points = max(config%order_m, config%order_n) + 1
-        if (config%gauss_points < config%order_n + 1) then
-            ! Singular for every system: say so here, naming the defaults taken.
-            if (n_given) then
-                call fail(status, "options --G and --N: G = " // int_str(config%gauss_points) &
-                    // " must be at least N + 1 = " // int_str(config%order_n + 1))
-            else
-                call fail(status, "option --G: G = " // int_str(config%gauss_points) // &
-                    " must be at least N + 1 = " // int_str(config%order_n + 1) // &
-                    " (N is M - 1 when --N is not given)")
-            end if
-            return
-        end if
+        call default_orders(config%order_m, config%order_n, config%gauss_points, n_given, &
+                            g_given, status)
+        if (.not. status%ok()) return
         if (.not. steps_given) then
             call resolve_steps(config, status)
             if (.not. status%ok()) return

@@ -27,7 +27,7 @@ module holosym_output
 
     public :: output_t, open_output, standard_output, make_directories, error_text
     public :: keep_standard_streams, remove_file, run_program, command_text, text_t
-    public :: read_text_file, append_text
+    public :: read_text_file, append_text, write_lines
 
     !> Bytes collected before a write(2).
     integer, parameter :: buffer_size = 65536
@@ -340,6 +340,22 @@ contains
             end if
         end do
     end function command_text
+
+    !> Write `lines` to `path` (replaced) through `output_t`. Failure:
+    !! HOLOSYM_INVALID_ARGUMENT naming the file and the system's reason.
+    subroutine write_lines(path, lines, status)
+        character(len=*), intent(in) :: path
+        type(text_t), intent(in) :: lines(:)
+        type(holosym_status_t), intent(inout) :: status
+        type(output_t) :: file
+        integer :: k
+        call open_output(path, file, status)
+        if (.not. status%ok()) return
+        do k = 1, size(lines)
+            call file%line(lines(k)%text)
+        end do
+        call file%close(status)
+    end subroutine write_lines
 
     !> Every line of the text file `path`, without line ends (a last line without its end
     !! is kept). Failure (HOLOSYM_INVALID_ARGUMENT, naming the file and the line; `lines`
