@@ -339,26 +339,32 @@ contains
         call out%line("L_z = x p_y - y p_x is conserved exactly by the scheme, so its " // &
             "change is round-off alone, at h = 1/8 as at any h. RMS over " // &
             int_str(growth%realizations) // " copies of the start state rotated about z and " &
-            // "over the steps of each block; " // int_str(growth%steps) // " steps, " // &
-            fixed2(growth%seconds) // " s, status " // code_text(growth%code) // ".")
+            // "over the steps of each block, on the default (reduced) path with `integrate` " &
+            // "(compensated) and with a loop of `step` (naive), and on the general path " // &
+            "(`structured = .false.`) with `integrate`; " // int_str(growth%steps) // &
+            " steps, " // fixed2(growth%seconds) // " s, status " // code_text(growth%code) // ".")
         call out%line("")
         call out%line("| steps | RMS, compensated (integrate) | RMS, naive (step loop) " &
-            // "| compensated / (eps sqrt(k)) | naive / (eps sqrt(k)) |")
-        call out%line("|---|---|---|---|---|")
+            // "| RMS, general path (integrate) | compensated / (eps sqrt(k)) | " // &
+            "naive / (eps sqrt(k)) | general / (eps sqrt(k)) |")
+        call out%line("|---|---|---|---|---|---|---|")
         first = 1
         do k = 1, size(growth%block_end)
-            centre = (real(first, wp) + growth%block_end(k)) / 2
+            centre = epsilon(1.0_wp) * sqrt((real(first, wp) + growth%block_end(k)) / 2)
             call out%line("| " // int_str(first) // "-" // int_str(growth%block_end(k)) &
                 // " | " // short_real(growth%rms_compensated(k)) // " | " // &
                 short_real(growth%rms_naive(k)) // " | " // &
-                fixed2(growth%rms_compensated(k) / (epsilon(1.0_wp) * sqrt(centre))) // &
-                " | " // fixed2(growth%rms_naive(k) / (epsilon(1.0_wp) * sqrt(centre))) // " |")
+                short_real(growth%rms_general(k)) // " | " // &
+                fixed2(growth%rms_compensated(k) / centre) // " | " // &
+                fixed2(growth%rms_naive(k) / centre) // " | " // &
+                fixed2(growth%rms_general(k) / centre) // " |")
             first = growth%block_end(k) + 1
         end do
         call out%line("")
         call out%line("Fitted growth exponent (blocks from step 16 on; 1/2 = random " // &
             "walk, 1 = drift): compensated " // fixed2(growth%exponent_compensated) // &
-            ", naive " // fixed2(growth%exponent_naive) // ".")
+            ", naive " // fixed2(growth%exponent_naive) // ", general path " // &
+            fixed2(growth%exponent_general) // ".")
     end subroutine report_long
 
     ! ------------------------------------------------------------------ 2. tiny

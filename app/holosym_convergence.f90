@@ -6,7 +6,8 @@ module holosym_convergence
     use, intrinsic :: iso_fortran_env, only: error_unit
     use holosym_kinds, only: wp
     use holosym_status, only: holosym_status_t, set_status, int_str, real_str, &
-        HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_INVALID_ORDER
+        HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_INVALID_ARGUMENT, &
+        HOLOSYM_INVALID_ORDER, HOLOSYM_STEP_TOO_LARGE
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator
     use holosym_task_farm, only: farm_job, task_farm
@@ -42,7 +43,8 @@ module holosym_convergence
         integer :: code = HOLOSYM_SUCCESS
         !> Failure message, if any.
         character(len=:), allocatable :: message
-        !> Levels computed (runs with the first `levels` step sizes).
+        !> Levels computed (runs with `levels` successive step sizes, after the largest ones
+        !! the integrator refused as too large).
         integer :: levels = 0
         !> Step sizes of the pair used for the energy order.
         real(wp) :: energy_h(2) = 0
@@ -156,50 +158,59 @@ contains
         real(wp) :: energy(size(settings%step_sizes)), global(size(settings%step_sizes))
         real(wp) :: q_end(size(q0))
         type(holosym_status_t) :: status
-        integer :: k, count_start, count_end, count_rate
+        integer :: k, first, count_start, count_end, count_rate
 
         call system_clock(count_start, count_rate)
         cell%levels = 0
+        ! The first level measured: the integrator refuses step sizes too large to resolve
+        ! the motion (HOLOSYM_STEP_TOO_LARGE); the largest ones are then left out.
+        first = 1
         do k = 1, size(settings%step_sizes)
             call run_once(sys, q0, p0, cell%order_m, cell%order_n, cell%gauss_points, &
                           settings%step_sizes(k), settings%span, energy(k), q_end, status)
+            if (status%code == HOLOSYM_STEP_TOO_LARGE .and. k == first .and. &
+                k < size(settings%step_sizes)) then
+                first = k + 1
+                cycle
+            end if
             if (.not. status%ok()) then
                 cell%code = status%code
                 cell%message = status%message
                 exit
             end if
             global(k) = maxval(abs(q_end - q_ref))
-            cell%levels = k
+            cell%levels = k - first + 1
             ! Finer steps help neither measure once each is at the floor or has settled.
-            if (done(energy(1:k), settings%error_floor) .and. &
-                done(global(1:k), settings%global_floor)) exit
+            if (done(energy(first:k), settings%step_sizes(first:k), settings%error_floor) &
+                .and. done(global(first:k), settings%step_sizes(first:k), &
+                           settings%global_floor)) exit
         end do
         if (cell%code == HOLOSYM_SUCCESS .or. cell%levels >= 2) then
-            call pick_pair(energy(1:cell%levels), settings%step_sizes, settings%error_floor, &
-                           cell%energy_h, cell%energy_error, cell%energy_order, &
-                           cell%energy_measured)
-            call pick_pair(global(1:cell%levels), settings%step_sizes, settings%global_floor, &
-                           cell%global_h, cell%global_error, cell%global_order, &
-                           cell%global_measured)
+            associate (last => first + cell%levels - 1)
+                call pick_pair(energy(first:last), settings%step_sizes(first:), &
+                               settings%error_floor, cell%energy_h, cell%energy_error, &
+                               cell%energy_order, cell%energy_measured)
+                call pick_pair(global(first:last), settings%step_sizes(first:), &
+                               settings%global_floor, cell%global_h, cell%global_error, &
+                               cell%global_order, cell%global_measured)
+            end associate
         end if
         call system_clock(count_end)
         cell%seconds = real(count_end - count_start, wp) / count_rate
 
     contains
 
-        !> An error sequence needs no finer level: its last value is at the floor, or its
-        !! last two orders agree within `settings%settled`.
-        pure logical function done(errors, floor)
-            real(wp), intent(in) :: errors(:), floor
+        !> An error sequence (at step sizes h) needs no finer level: its last value is at
+        !! the floor, or its last two orders agree within `settings%settled`.
+        pure logical function done(errors, h, floor)
+            real(wp), intent(in) :: errors(:), h(:), floor
             real(wp) :: orders(2)
             integer :: last
             last = size(errors)
             done = errors(last) <= floor
             if (done .or. last < 3) return
-            associate (h => settings%step_sizes)
-                orders = log(errors(last - 2:last - 1) / errors(last - 1:last)) / &
-                         log(h(last - 2:last - 1) / h(last - 1:last))
-            end associate
+            orders = log(errors(last - 2:last - 1) / errors(last - 1:last)) / &
+                     log(h(last - 2:last - 1) / h(last - 1:last))
             done = abs(orders(2) - orders(1)) <= settings%settled
         end function done
 

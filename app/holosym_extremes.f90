@@ -115,7 +115,8 @@ module holosym_extremes
     end type long_run_result_t
 
     !> Round-off growth: RMS change of L_z over rotated copies of the start state, with the
-    !! compensated summation of `integrate` and with naive summation (a loop of `step`).
+    !! compensated summation of `integrate` and with naive summation (a loop of `step`), on
+    !! the default (reduced) path, and with `integrate` on the general path.
     type :: growth_result_t
         integer :: steps = 0         !! steps per run
         integer :: realizations = 0  !! rotated copies
@@ -124,8 +125,10 @@ module holosym_extremes
         integer, allocatable :: block_end(:)          !! block ends (doubling)
         real(wp), allocatable :: rms_compensated(:)   !! RMS of L_z - L_z(0), compensated
         real(wp), allocatable :: rms_naive(:)         !! the same with naive summation
+        real(wp), allocatable :: rms_general(:)       !! compensated, general path
         real(wp) :: exponent_compensated = 0 !! fitted exponent (1/2 for a random walk)
         real(wp) :: exponent_naive = 0       !! fitted exponent, naive summation
+        real(wp) :: exponent_general = 0     !! fitted exponent, general path
         real(wp) :: seconds = 0
     end type growth_result_t
 
@@ -504,9 +507,10 @@ contains
 
     !> Round-off growth: `realizations` copies of the paper's pendulum state rotated about
     !! the z axis (then projected onto the manifold), each run for `steps` steps at h = 1/8
-    !! with (2, 1, 3), once with `integrate` (compensated summation) and once as a loop of
-    !! `step` (naive summation q <- q + dq). The RMS of L_z - L_z(0) over each doubling block
-    !! and all copies, and its fitted growth exponent (1/2: a random walk; 1: a drift).
+    !! with (2, 1, 3): with `integrate` (compensated summation), as a loop of `step` (naive
+    !! summation q <- q + dq), and with `integrate` on the general path
+    !! (`structured = .false.`). The RMS of L_z - L_z(0) over each doubling block and all
+    !! copies, and its fitted growth exponent (1/2: a random walk; 1: a drift).
     !! Codes: HOLOSYM_INVALID_ARGUMENT (steps < 2 or realizations < 1); a failed run is
     !! reported in `result%code`.
     subroutine run_growth_study(steps, realizations, result, status, progress_unit)
@@ -515,14 +519,15 @@ contains
         type(growth_result_t), intent(out) :: result !! measurements
         type(holosym_status_t), intent(out), optional :: status !! invalid sizes
         integer, intent(in), optional :: progress_unit !! progress lines here
+        integer, parameter :: variants = 3
         type(spherical_pendulum) :: sys
         type(constrained_integrator) :: integrator
         type(run_monitor) :: monitor
         type(holosym_status_t) :: local
         type(step_info_t) :: info
-        real(wp) :: q0(3), p0(3), q(3), p(3), angle
-        real(wp), allocatable :: sum_compensated(:), sum_naive(:)
-        integer, allocatable :: count_compensated(:), count_naive(:)
+        real(wp) :: q0(3), p0(3), q(3), p(3), qr(3), pr(3), angle
+        real(wp), allocatable :: sums(:, :)
+        integer, allocatable :: counts(:, :)
         integer :: r, k, variant, done
         integer(int64) :: start
         logical :: halt
@@ -538,12 +543,9 @@ contains
         result%realizations = realizations
         result%message = ""
         result%block_end = geometric_blocks(steps, growth_block_factor)
-        allocate (sum_compensated(size(result%block_end)), sum_naive(size(result%block_end)))
-        allocate (count_compensated(size(result%block_end)), count_naive(size(result%block_end)))
-        sum_compensated = 0
-        sum_naive = 0
-        count_compensated = 0
-        count_naive = 0
+        allocate (sums(size(result%block_end), variants), counts(size(result%block_end), variants))
+        sums = 0
+        counts = 0
         sys = spherical_pendulum()
         call sys%initial_state(q0, p0)
         do r = 1, realizations
@@ -554,37 +556,27 @@ contains
                  p0(3)]
             call project_to_manifold(sys, q, p, local)
             if (.not. local%ok()) exit
-            do variant = 1, 2
+            do variant = 1, variants
                 call monitor_start(monitor, sys, q, p, steps, growth_block_factor, .true., steps)
+                integrator%structured = variant /= 3
                 call integrator%init(sys, paper_order_m, paper_order_n, paper_gauss, local)
                 if (.not. local%ok()) exit
-                if (variant == 1) then
-                    block
-                        real(wp) :: qc(3), pc(3)
-                        qc = q
-                        pc = p
-                        call integrator%integrate(sys, qc, pc, paper_step, steps, monitor, &
-                                                  done, local)
-                    end block
-                    if (.not. local%ok()) exit
-                    sum_compensated = sum_compensated + monitor%block_lz2
-                    count_compensated = count_compensated + monitor%block_count
+                qr = q
+                pr = p
+                if (variant /= 2) then
+                    call integrator%integrate(sys, qr, pr, paper_step, steps, monitor, done, &
+                                              local)
                 else
-                    block
-                        real(wp) :: qn(3), pn(3)
-                        qn = q
-                        pn = p
-                        halt = .false.
-                        do k = 1, steps
-                            call integrator%step(sys, qn, pn, paper_step, info, local)
-                            if (.not. local%ok()) exit
-                            call monitor%observe(k, k * paper_step, qn, pn, info, halt)
-                        end do
-                    end block
-                    if (.not. local%ok()) exit
-                    sum_naive = sum_naive + monitor%block_lz2
-                    count_naive = count_naive + monitor%block_count
+                    halt = .false.
+                    do k = 1, steps
+                        call integrator%step(sys, qr, pr, paper_step, info, local)
+                        if (.not. local%ok()) exit
+                        call monitor%observe(k, k * paper_step, qr, pr, info, halt)
+                    end do
                 end if
+                if (.not. local%ok()) exit
+                sums(:, variant) = sums(:, variant) + monitor%block_lz2
+                counts(:, variant) = counts(:, variant) + monitor%block_count
             end do
             if (.not. local%ok()) exit
             call progress(progress_unit, "round-off growth: copy " // int_str(r) // "/" // &
@@ -592,14 +584,24 @@ contains
         end do
         result%code = local%code
         result%message = local%message
-        result%rms_compensated = sqrt(sum_compensated / max(count_compensated, 1))
-        result%rms_naive = sqrt(sum_naive / max(count_naive, 1))
-        result%exponent_compensated = fitted_exponent(fit_points(result%block_end), &
-            fit_values(result%block_end, result%rms_compensated))
-        result%exponent_naive = fitted_exponent(fit_points(result%block_end), &
-            fit_values(result%block_end, result%rms_naive))
+        result%rms_compensated = sqrt(sums(:, 1) / max(counts(:, 1), 1))
+        result%rms_naive = sqrt(sums(:, 2) / max(counts(:, 2), 1))
+        result%rms_general = sqrt(sums(:, 3) / max(counts(:, 3), 1))
+        result%exponent_compensated = growth_exponent(result%rms_compensated)
+        result%exponent_naive = growth_exponent(result%rms_naive)
+        result%exponent_general = growth_exponent(result%rms_general)
         result%seconds = seconds_since(start)
         call set_status(status, HOLOSYM_SUCCESS, "")
+
+    contains
+
+        !> Fitted growth exponent of an RMS column over the blocks.
+        real(wp) function growth_exponent(rms)
+            real(wp), intent(in) :: rms(:)
+            growth_exponent = fitted_exponent(fit_points(result%block_end), &
+                                              fit_values(result%block_end, rms))
+        end function growth_exponent
+
     end subroutine run_growth_study
 
     ! ------------------------------------------------------------------ 2. tiny steps

@@ -687,7 +687,8 @@ contains
             if (rows(i)%code == HOLOSYM_SUCCESS) call check(error, rows(i)%error > 0 .and. &
                 rows(i)%error <= huge(1.0_wp), "row " // int_str(i) // ": finite error " // &
                 real_str(rows(i)%error))
-            call check(error, rows(i)%newton_iterations > 0 .or. rows(i)%method /= "holosym", &
+            call check(error, rows(i)%newton_iterations > 0 .or. rows(i)%method /= "holosym" &
+                .or. rows(i)%code /= HOLOSYM_SUCCESS, &
                 "holosym rows count Newton iterations")
             if (rows(i)%method == "holosym" .and. rows(i)%gauss_points == 1 .and. &
                 rows(i)%code == HOLOSYM_SUCCESS) then

@@ -123,7 +123,7 @@ contains
     subroutine cli_quick_report(error)
         type(test_error_t), allocatable, intent(out) :: error
         type(command_result_t) :: result
-        real(wp) :: points(32), compensated(32), naive(32), printed(2)
+        real(wp) :: points(32), compensated(32), naive(32), general(32), printed(3)
         integer :: i, rows, first, last, ios
         logical :: inside
         character(len=:), allocatable :: line, tail
@@ -156,13 +156,17 @@ contains
                     read (tail, *, iostat=ios) compensated(rows)
                     tail = split_field(line, 4, "|")
                     read (tail, *, iostat=ios) naive(rows)
+                    tail = split_field(line, 5, "|")
+                    read (tail, *, iostat=ios) general(rows)
                 end if
             end if
             if (index(line, "Fitted growth exponent") == 1) then
                 tail = line(index(line, "compensated ") + len("compensated "):)
                 read (tail(:index(tail, ",") - 1), *, iostat=ios) printed(1)
                 tail = line(index(line, "naive ") + len("naive "):)
-                read (tail(:len(tail) - 1), *, iostat=ios) printed(2)
+                read (tail(:index(tail, ",") - 1), *, iostat=ios) printed(2)
+                tail = line(index(line, "general path ") + len("general path "):)
+                read (tail(:len(tail) - 1), *, iostat=ios) printed(3)
                 exit
             end if
         end do
@@ -170,10 +174,13 @@ contains
             "found: " // int_str(rows) // " blocks")
         if (allocated(error)) return
         call check(error, abs(slope(points(:rows), compensated(:rows)) - printed(1)) <= &
-            0.02_wp .and. abs(slope(points(:rows), naive(:rows)) - printed(2)) <= 0.02_wp, &
+            0.02_wp .and. abs(slope(points(:rows), naive(:rows)) - printed(2)) <= 0.02_wp &
+            .and. abs(slope(points(:rows), general(:rows)) - printed(3)) <= 0.02_wp, &
             "printed exponents " // real_str(printed(1)) // ", " // real_str(printed(2)) // &
-            "; from the table " // real_str(slope(points(:rows), compensated(:rows))) // ", " &
-            // real_str(slope(points(:rows), naive(:rows))))
+            ", " // real_str(printed(3)) // "; from the table " // &
+            real_str(slope(points(:rows), compensated(:rows))) // ", " // &
+            real_str(slope(points(:rows), naive(:rows))) // ", " // &
+            real_str(slope(points(:rows), general(:rows))))
 
     contains
 

@@ -52,10 +52,10 @@ module holosym_status
     !> The constraint Jacobian Phi is rank deficient at the state, or becomes so within
     !! the step (at a displacement node of the failing Newton iterate).
     integer, parameter, public :: HOLOSYM_RANK_DEFICIENT_CONSTRAINTS = 5
-    !> The step is too large for a unique solution: Newton converged to a root that is not
-    !! the continuation of the flow (the step changed the energy by more than 1e-2 relative
-    !! and disagrees with two half steps), or the step's equations overflow or are
-    !! singular at this h only (they are not at a smaller h). Reduce h.
+    !> The step is too large: Newton converged to a root that is not the continuation of
+    !! the flow, or h does not resolve the motion (the step changed the energy by more than
+    !! 1e-3 relative and lies more than 1e-2 from two half steps), or the step's equations
+    !! overflow or are singular at this h only (they are not at a smaller h). Reduce h.
     integer, parameter, public :: HOLOSYM_STEP_TOO_LARGE = 6
     !> h is below the resolution of the state: the round-off of q, epsilon |q|, divided by
     !! h exceeds Newton's stagnation level in the momenta, so the step's equations cannot
