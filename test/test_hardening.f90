@@ -919,9 +919,9 @@ contains
     !! as success has a relative energy error below 1e-2 and (where the run with h/8 of the
     !! same code has reached it) a state within 1e-2 of that run and of 8 steps of h/8 from
     !! its own start; a failure has a positive code, keeps the state and comes after the
-    !! first `least` steps. `energy_only` leaves out the state comparisons.
+    !! first `least` steps.
     subroutine check_criterion(error, sys, q0, p0, order_m, order_n, gauss_points, h, &
-                               steps, least, structured, label, energy_only)
+                               steps, least, structured, label)
         type(test_error_t), allocatable, intent(inout) :: error
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q0(:), p0(:), h
@@ -930,7 +930,6 @@ contains
         integer, intent(in) :: least
         logical, intent(in) :: structured
         character(len=*), intent(in) :: label
-        logical, intent(in), optional :: energy_only
         type(constrained_integrator) :: big, small, local
         type(holosym_status_t) :: status
         real(wp) :: q(size(q0)), p(size(p0)), q_before(size(q0)), p_before(size(p0))
@@ -939,11 +938,8 @@ contains
         real(wp) :: distance
         integer :: k, j, reference_steps
         character(len=:), allocatable :: full
-        logical :: compare_states
         if (allocated(error)) return
         full = label // " (" // path_name(structured) // ")"
-        compare_states = .true.
-        if (present(energy_only)) compare_states = .not. energy_only
         big%structured = structured
         small%structured = structured
         local%structured = structured
@@ -953,17 +949,15 @@ contains
         reference_steps = 0
         q = q0
         p = p0
-        if (compare_states) then
-            reference: do k = 1, steps
-                do j = 1, 8
-                    call small%step(sys, q, p, h / 8, status=status)
-                    if (.not. status%ok()) exit reference
-                end do
-                q_ref(:, k) = q
-                p_ref(:, k) = p
-                reference_steps = k
-            end do reference
-        end if
+        reference: do k = 1, steps
+            do j = 1, 8
+                call small%step(sys, q, p, h / 8, status=status)
+                if (.not. status%ok()) exit reference
+            end do
+            q_ref(:, k) = q
+            p_ref(:, k) = p
+            reference_steps = k
+        end do reference
         q = q0
         p = p0
         energy0 = sys%hamiltonian(q0, p0)
