@@ -11,7 +11,7 @@ module holosym_reduced_kernels_dp
     !> SHA-256 of include/holosym_reduced_kernels.inc as compiled into this module
     !! (tools/include_digest.sh keeps it current; the test suite compares it with the file).
     character(len=*), parameter, public :: template_sha256 = &
-        "95f20c6443001e050aeb6e12e0d140be672fe8337c2b8da0a3ed2b3df348be4b"
+        "431cc122b7cf07b049add81cea206341a312b03d97d8f040c859ca064d05f2ce"
 
 #include "holosym_reduced_kernels.inc"
 

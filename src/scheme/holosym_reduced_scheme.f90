@@ -211,6 +211,10 @@ contains
         do k = 0, mm
             s(:, k) = matmul(transpose(a), gauss_w * matmul(c, ctwa(:, k)))
         end do
+        ! The kinetic part of the discrete action is (M/2h) z^T S z over z_1..z_M: its
+        ! block of S exactly symmetric, as the action needs (row 0 is not used in the
+        ! residual: see node_sums).
+        s(1:mm, 1:mm) = (s(1:mm, 1:mm) + transpose(s(1:mm, 1:mm))) / 2
         associate (t => self%tab)
             allocate (t%bt(mm, gg), t%st(mm, 0:mm), t%wb(gg, 0:mm), t%w(gg), t%wl(0:mm))
             t%bt = transpose(b(:, 1:mm))

@@ -848,6 +848,7 @@ contains
                   tab%wbc(gg, 0:mm, 0:nn), tab%lobatto_weights(0:mm))
         tab%b = self%b
         tab%c = self%c
+        tab%w = self%gauss_weights
         do g = 1, gg
             tab%wb(g, :) = self%gauss_weights(g) * self%b(g, :)
             tab%wc(g, :) = self%gauss_weights(g) * self%c(g, :)
@@ -890,6 +891,7 @@ contains
         call lower_2d(tab%c, low%c)
         call lower_2d(tab%wb, low%wb)
         call lower_2d(tab%wc, low%wc)
+        call lower_1d(tab%w, low%w)
         call lower_2d(tab%sca, low%sca)
         call lower_2d(tab%scb, low%scb)
         call lower_2d(tab%scc, low%scc)

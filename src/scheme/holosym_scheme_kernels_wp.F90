@@ -10,7 +10,7 @@ module holosym_scheme_kernels_wp
     !> SHA-256 of include/holosym_scheme_kernels.inc as compiled into this module
     !! (tools/include_digest.sh keeps it current; the test suite compares it with the file).
     character(len=*), parameter, public :: template_sha256 = &
-        "a228f834904786a0b2ab2be32875dba4f979b2bfcfc00231749f426c598c55c0"
+        "ba557071f669467e9a14f5b124367075ee5277a2d122319e30dc073d94ddac50"
 
 #define SCHEME_TABLES scheme_tables_wp
 #define STEP_CONSTANTS step_constants_wp
