@@ -12,7 +12,7 @@
 !!      1   0.10  -8.415E-02  -9.965E-01   6.984E-15
 !!      ...
 !!     16   1.60  -7.772E-01  -6.293E-01   6.896E-10
-!!     failures: 0; Newton iterations: 13489
+!!     failures: 0; Newton iterations: 13490
 program pendulum_ensemble
     use holosym, only: wp, ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
         run_ensemble, holosym_status_t

@@ -11,7 +11,7 @@
 !!     (M,N,G) = (7,6,8), h = 1/8, 80 steps
 !!     plain:  1.08E-02 s/step, fast:  1.28E-04 s/step, speed-up   83.9
 !!     states differ by  6.21E-33
-!!     LU factorisations: plain 480, fast 161
+!!     LU factorisations: plain 480, fast 162
 !!     Newton iterations: plain 480, fast 333
 program speed_options
     use holosym, only: wp, spherical_pendulum, constrained_integrator, holosym_status_t
