@@ -662,7 +662,7 @@ contains
         type(run_record) :: record
         type(step_info_t) :: info
         type(holosym_status_t) :: status
-        real(wp) :: q0(3), p0(3), q(3), p(3), angle
+        real(wp) :: q0(3), p0(3), q(3), p(3)
         real(wp) :: sum_squares(3, steps), rms, centre
         integer :: c, variant, k, first, last
         logical :: halt
@@ -671,14 +671,7 @@ contains
         sys = spherical_pendulum()
         sum_squares = 0
         do c = 1, copies
-            call sys%initial_state(q0, p0)
-            angle = 2 * pi * (c - 1) / copies
-            q0 = [cos(angle) * q0(1) - sin(angle) * q0(2), sin(angle) * q0(1) + &
-                  cos(angle) * q0(2), q0(3)]
-            p0 = [cos(angle) * p0(1) - sin(angle) * p0(2), sin(angle) * p0(1) + &
-                  cos(angle) * p0(2), p0(3)]
-            call project_to_manifold(sys, q0, p0, status)
-            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "projection")
+            call rotated_start(sys, 2 * pi * (c - 1) / copies, q0, p0, error)
             do variant = 1, 3
                 q = q0
                 p = p0
@@ -749,21 +742,14 @@ contains
         type(constrained_integrator) :: integrator
         type(run_record) :: record
         type(holosym_status_t) :: status
-        real(wp) :: q0(3), p0(3), q(3), p(3), angle, sum_squares(2), rms
+        real(wp) :: q0(3), p0(3), q(3), p(3), sum_squares(2), rms
         integer :: c, path
         real(wp), parameter :: pi = 4 * atan(1.0_wp)
 
         sys = spherical_pendulum()
         sum_squares = 0
         do c = 1, copies
-            call sys%initial_state(q0, p0)
-            angle = 2 * pi * (c - 1) / copies + 0.3_wp
-            q0 = [cos(angle) * q0(1) - sin(angle) * q0(2), sin(angle) * q0(1) + &
-                  cos(angle) * q0(2), q0(3)]
-            p0 = [cos(angle) * p0(1) - sin(angle) * p0(2), sin(angle) * p0(1) + &
-                  cos(angle) * p0(2), p0(3)]
-            call project_to_manifold(sys, q0, p0, status)
-            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "projection")
+            call rotated_start(sys, 2 * pi * (c - 1) / copies + 0.3_wp, q0, p0, error)
             do path = 1, 2
                 q = q0
                 p = p0
@@ -785,6 +771,22 @@ contains
                 " eps sqrt(k) (bound " // real_str(bound) // ")")
         end do
     end subroutine roundoff_no_drift
+
+    !> The paper's pendulum state rotated by `angle` about the z axis, projected onto the
+    !! manifold (checked).
+    subroutine rotated_start(sys, angle, q0, p0, error)
+        type(spherical_pendulum), intent(in) :: sys
+        real(wp), intent(in) :: angle
+        real(wp), intent(out) :: q0(3), p0(3)
+        type(test_error_t), allocatable, intent(inout) :: error
+        type(holosym_status_t) :: status
+        real(wp) :: q(3), p(3)
+        call sys%initial_state(q, p)
+        q0 = [cos(angle) * q(1) - sin(angle) * q(2), sin(angle) * q(1) + cos(angle) * q(2), q(3)]
+        p0 = [cos(angle) * p(1) - sin(angle) * p(2), sin(angle) * p(1) + cos(angle) * p(2), p(3)]
+        call project_to_manifold(sys, q0, p0, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "projection")
+    end subroutine rotated_start
 
     !> Tiny steps shortened: with M = 4 the error after 20 steps falls with h until the
     !! round-off band 64 eps sqrt(K): above it at h_large, inside it at h = 1e-4 (global
