@@ -1234,6 +1234,10 @@ contains
         call unit%line("")
         call target_verdicts(rows, unit)
         call unit%line("")
+        call unit%line("Where a target is missed, the profile of a step and the least a step of this " // &
+            "design costs are in [design.md](design.md#where-the-time-goes-and-what-this-design-" // &
+            "cannot-do) (callgrind counts, with the commands).")
+        call unit%line("")
         call unit%line("![work-precision](figures/work_precision.png)")
         call unit%line("")
         call write_summary(rows, steps_rows, unit, nested=.true.)
