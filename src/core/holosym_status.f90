@@ -41,6 +41,9 @@ module holosym_status
     integer, parameter, public :: HOLOSYM_NOT_INITIALIZED = -8
     !> Any other invalid argument (a non-finite input value, tau outside [0,1], ...).
     integer, parameter, public :: HOLOSYM_INVALID_ARGUMENT = -9
+    !> A model file (or model text) refused: a syntax or meaning error, or an initial
+    !! state where the model cannot be evaluated; the message gives file:line:column.
+    integer, parameter, public :: HOLOSYM_INVALID_MODEL = -10
     !> The Newton Jacobian (or a matrix given to the LU) is singular to working precision.
     integer, parameter, public :: HOLOSYM_SINGULAR_MATRIX = 1
     !> Newton's method did not converge within its iteration limit.
@@ -111,6 +114,7 @@ contains
         case (HOLOSYM_USER_ABORT);                 name = "stopped by the observer"
         case (HOLOSYM_NOT_INITIALIZED);            name = "integrator not initialized"
         case (HOLOSYM_INVALID_ARGUMENT);           name = "invalid argument"
+        case (HOLOSYM_INVALID_MODEL);              name = "invalid model"
         case (HOLOSYM_SINGULAR_MATRIX);            name = "singular matrix"
         case (HOLOSYM_NEWTON_NOT_CONVERGED);       name = "Newton not converged"
         case (HOLOSYM_NEWTON_DIVERGED);            name = "Newton diverged"

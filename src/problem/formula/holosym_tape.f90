@@ -1,0 +1,236 @@
+!> category: internal module (use holosym)
+!! The compiled form of a set of expressions: a tape, the straight-line program that
+!! evaluates some nodes of an expression graph (holosym_expression) in one pass, with no
+!! tree walk and no graph at run time.
+!!
+!! A tape's work array holds, in this order: the coordinates, momenta and parameters it
+!! reads (only those), its constants, then one slot per instruction; each instruction
+!! reads earlier slots. Outputs are slots. The same tape evaluates in working precision
+!! (`evaluate`) and in real64 (`evaluate_dp`, constants rounded once when the tape is
+!! built). Evaluation allocates nothing for tapes of up to `small_tape` slots, and is
+!! thread-safe: a tape is only read.
+module holosym_tape
+    use holosym_kinds, only: wp, dp
+    use holosym_expression, only: expression_graph_t, op_constant, op_variable, op_parameter, &
+        op_power_int
+    use holosym_tape_kernels_wp, only: run_tape_wp
+    use holosym_tape_kernels_dp, only: run_tape_dp
+    implicit none
+    private
+
+    public :: tape_t
+
+    !> Slots of a tape evaluated in a fixed-size local array (larger tapes allocate one).
+    integer, parameter :: small_tape = 512
+
+    !> A compiled set of expressions.
+    type :: tape_t
+        !> Number of outputs.
+        integer :: outputs = 0
+        !> Slot of the first instruction's result.
+        integer :: first = 1
+        !> Size of the work array.
+        integer :: slots = 0
+        !> Coordinates, momenta and parameters read, by index.
+        integer, allocatable :: q_index(:), p_index(:), parameter_index(:)
+        !> The constants, in working precision and rounded to real64.
+        real(wp), allocatable :: constants(:)
+        real(dp), allocatable :: constants_dp(:)
+        !> The instructions (see holosym_tape_kernels.inc).
+        integer, allocatable :: ops(:), left(:), right(:)
+        !> Slot of each output.
+        integer, allocatable :: output_slot(:)
+    contains
+        !> Compile the nodes `roots` of a graph whose variables are n coordinates, then n
+        !! momenta.
+        procedure :: build => tape_build
+        !> Evaluate in working precision.
+        procedure :: evaluate => tape_evaluate
+        !> Evaluate in real64.
+        procedure :: evaluate_dp => tape_evaluate_dp
+        !> Number of instructions.
+        procedure :: length => tape_length
+    end type tape_t
+
+contains
+
+    !> Compile `roots` (outputs in this order) of `graph`; variables 1..n are the
+    !! coordinates, n+1..2n the momenta.
+    subroutine tape_build(self, graph, roots, n)
+        class(tape_t), intent(out) :: self
+        type(expression_graph_t), intent(inout) :: graph !! the expressions
+        integer, intent(in) :: roots(:) !! the nodes to compute
+        integer, intent(in) :: n        !! number of coordinates
+        integer, allocatable :: nodes(:), slot(:)
+        integer :: k, node, nq, np, nk, nc, ni, s
+        nodes = graph%cone(roots)
+        allocate (slot(size(nodes)))
+        associate (op => graph%op(nodes), index => graph%left(nodes))
+            nq = count(op == op_variable .and. index <= n)
+            np = count(op == op_variable .and. index > n)
+            nk = count(op == op_parameter)
+            nc = count(op == op_constant)
+            self%q_index = pack(index, op == op_variable .and. index <= n)
+            self%p_index = pack(index, op == op_variable .and. index > n) - n
+            self%parameter_index = pack(index, op == op_parameter)
+            self%constants = pack(graph%value(nodes), op == op_constant)
+        end associate
+        ni = size(nodes) - nq - np - nk - nc
+        self%constants_dp = rounded(self%constants)
+        self%first = nq + np + nk + nc + 1
+        self%slots = size(nodes)
+        allocate (self%ops(ni), self%left(ni), self%right(ni))
+        ! Slots: the leaves in the order of the packs above, then the instructions.
+        call number_leaves(graph, nodes, n, nq, np, nk, slot)
+        s = 0
+        do k = 1, size(nodes)
+            node = nodes(k)
+            select case (graph%op(node))
+            case (op_constant, op_variable, op_parameter)
+                cycle
+            end select
+            s = s + 1
+            slot(k) = self%first + s - 1
+            self%ops(s) = graph%op(node)
+            self%left(s) = slot(position(graph%left(node)))
+            self%right(s) = graph%right(node)
+            if (graph%right(node) > 0 .and. graph%op(node) /= op_power_int) &
+                self%right(s) = slot(position(graph%right(node)))
+        end do
+        self%outputs = size(roots)
+        allocate (self%output_slot(size(roots)))
+        do k = 1, size(roots)
+            self%output_slot(k) = slot(position(roots(k)))
+        end do
+    contains
+        integer function position(target)
+            integer, intent(in) :: target
+            integer :: low, high, middle
+            low = 1
+            high = size(nodes)
+            do while (low < high)
+                middle = (low + high) / 2
+                if (nodes(middle) < target) then
+                    low = middle + 1
+                else
+                    high = middle
+                end if
+            end do
+            position = low
+        end function position
+    end subroutine tape_build
+
+    !> Slots of the leaves among `nodes`: coordinates 1..nq, momenta, parameters, constants.
+    subroutine number_leaves(graph, nodes, n, nq, np, nk, slot)
+        type(expression_graph_t), intent(in) :: graph
+        integer, intent(in) :: nodes(:), n, nq, np, nk
+        integer, intent(inout) :: slot(:)
+        integer :: k, iq, ip, ik, ic
+        iq = 0
+        ip = nq
+        ik = nq + np
+        ic = nq + np + nk
+        do k = 1, size(nodes)
+            select case (graph%op(nodes(k)))
+            case (op_variable)
+                if (graph%left(nodes(k)) <= n) then
+                    iq = iq + 1
+                    slot(k) = iq
+                else
+                    ip = ip + 1
+                    slot(k) = ip
+                end if
+            case (op_parameter)
+                ik = ik + 1
+                slot(k) = ik
+            case (op_constant)
+                ic = ic + 1
+                slot(k) = ic
+            end select
+        end do
+    end subroutine number_leaves
+
+    !> Constants rounded to real64 (beyond its range: the largest real64 of the sign).
+    pure function rounded(values) result(out)
+        real(wp), intent(in) :: values(:)
+        real(dp) :: out(size(values))
+        integer :: k
+        do k = 1, size(values)
+            if (abs(values(k)) > huge(1.0_dp)) then
+                out(k) = sign(huge(1.0_dp), real(sign(1.0_wp, values(k)), dp))
+            else
+                out(k) = real(values(k), dp)
+            end if
+        end do
+    end function rounded
+
+    !> The outputs at (q, p) with the parameters' values, in working precision.
+    subroutine tape_evaluate(self, q, p, parameters, out)
+        class(tape_t), intent(in) :: self
+        real(wp), intent(in) :: q(:)          !! coordinates (n)
+        real(wp), intent(in) :: p(:)          !! momenta (n)
+        real(wp), intent(in) :: parameters(:) !! parameter values
+        real(wp), intent(out) :: out(:)       !! the outputs
+        real(wp) :: small(small_tape)
+        real(wp), allocatable :: large(:)
+        if (self%slots <= small_tape) then
+            call run(small(:self%slots))
+        else
+            allocate (large(self%slots))
+            call run(large)
+        end if
+    contains
+        subroutine run(v)
+            real(wp), intent(inout) :: v(:)
+            integer :: a, b, c
+            a = size(self%q_index)
+            b = a + size(self%p_index)
+            c = b + size(self%parameter_index)
+            v(1:a) = q(self%q_index)
+            v(a + 1:b) = p(self%p_index)
+            v(b + 1:c) = parameters(self%parameter_index)
+            v(c + 1:self%first - 1) = self%constants
+            call run_tape_wp(self%ops, self%left, self%right, self%first, v)
+            out(:self%outputs) = v(self%output_slot)
+        end subroutine run
+    end subroutine tape_evaluate
+
+    !> The outputs at (q, p) with the parameters' values, in real64.
+    subroutine tape_evaluate_dp(self, q, p, parameters, out)
+        class(tape_t), intent(in) :: self
+        real(dp), intent(in) :: q(:)          !! coordinates (n)
+        real(dp), intent(in) :: p(:)          !! momenta (n)
+        real(dp), intent(in) :: parameters(:) !! parameter values, rounded
+        real(dp), intent(out) :: out(:)       !! the outputs
+        real(dp) :: small(small_tape)
+        real(dp), allocatable :: large(:)
+        if (self%slots <= small_tape) then
+            call run(small(:self%slots))
+        else
+            allocate (large(self%slots))
+            call run(large)
+        end if
+    contains
+        subroutine run(v)
+            real(dp), intent(inout) :: v(:)
+            integer :: a, b, c
+            a = size(self%q_index)
+            b = a + size(self%p_index)
+            c = b + size(self%parameter_index)
+            v(1:a) = q(self%q_index)
+            v(a + 1:b) = p(self%p_index)
+            v(b + 1:c) = parameters(self%parameter_index)
+            v(c + 1:self%first - 1) = self%constants_dp
+            call run_tape_dp(self%ops, self%left, self%right, self%first, v)
+            out(:self%outputs) = v(self%output_slot)
+        end subroutine run
+    end subroutine tape_evaluate_dp
+
+    !> Number of instructions.
+    pure integer function tape_length(self)
+        class(tape_t), intent(in) :: self
+        tape_length = 0
+        if (allocated(self%ops)) tape_length = size(self%ops)
+    end function tape_length
+
+end module holosym_tape
