@@ -17,7 +17,7 @@ module holosym_cli_ensemble
     use holosym_ensemble, only: ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
         run_ensemble, check_ensemble, perturbed_states
     use holosym_ensemble_files, only: read_ensemble_states, ensemble_csv_sink, seconds_text
-    use holosym_systems, only: make_system, is_system_name, system_names, system_choices
+    use holosym_systems, only: system_source_t, make_source_system
     use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
     use holosym_cli_common, only: parsed_command_proceeds, cli_argument_t, split_option, &
         option_value, parse_integer, parse_integer_in, parse_real, fail, csv_real, &
@@ -37,7 +37,7 @@ module holosym_cli_ensemble
 
     !> Options of `holosym ensemble`.
     type :: ensemble_config_t
-        character(len=:), allocatable :: system  !! system name
+        type(system_source_t) :: source          !! built-in system or model file
         integer :: order_m = 2                   !! M
         integer :: order_n = 1                   !! N (default M - 1)
         integer :: gauss_points = 3              !! G (default max(M, N) + 1)
@@ -124,10 +124,9 @@ contains
         type(ensemble_config_t), intent(out) :: config  !! parsed settings
         type(holosym_status_t), intent(out) :: status   !! outcome
         character(len=:), allocatable :: name, inline, value
-        logical :: has_inline, n_given, g_given, every_given, timing_given
+        logical :: has_inline, n_given, g_given, every_given, timing_given, taken
         integer :: i
 
-        config%system = system_names(1)
         config%states = ""
         config%output = ""
         config%timing = ""
@@ -153,16 +152,14 @@ contains
                 if (name == "--project") config%project = .true.
                 if (name == "--resume") config%resume = .true.
                 if (name == "--quiet") config%quiet = .true.
-            case ("--system", "--M", "--N", "--G", "--h", "--T", "--states", "--perturb", &
-                  "--scale", "--seed", "--output", "--timing", "--samples", "--every", &
-                  "--threads")
+            case ("--system", "--model", "--set", "--M", "--N", "--G", "--h", "--T", &
+                  "--states", "--perturb", "--scale", "--seed", "--output", "--timing", &
+                  "--samples", "--every", "--threads")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
+                call config%source%take(name, value, taken, status)
+                if (.not. status%ok()) return
                 select case (name)
-                case ("--system")
-                    config%system = value
-                    if (.not. is_system_name(value)) call fail(status, "option --system: " // &
-                        "unknown system '" // value // "'; choose " // system_choices)
                 case ("--M")
                     call parse_integer_in(name, value, 1, max_order_m, config%order_m, status)
                 case ("--N")
@@ -208,6 +205,8 @@ contains
             end select
             i = i + 1
         end do
+        call config%source%check(status)
+        if (.not. status%ok()) return
         call default_orders(config%order_m, config%order_n, config%gauss_points, n_given, &
                             g_given, status)
         if (.not. status%ok()) return
@@ -320,14 +319,16 @@ contains
         type(holosym_status_t) :: status
         real(wp), allocatable :: q0(:), p0(:)
         logical, allocatable :: skip(:)
-        character(len=:), allocatable :: description
+        character(len=:), allocatable :: description, note, identity
         integer(int64) :: clock_start, clock_end, clock_rate
         logical :: collector
 
         exit_code = EXIT_FAILURE
         collector = farm%is_collector()
         call system_clock(clock_start, clock_rate)
-        call make_system(config%system, sys, q0, p0, status)
+        call make_source_system(config%source, sys, q0, p0, status, note, identity)
+        if (status%ok() .and. len(note) > 0 .and. collector .and. .not. config%quiet) &
+            write (err_unit, '(a)') "holosym ensemble: note: " // note
         if (status%ok()) then
             if (config%perturb > 0) then
                 call perturbed_states(q0, p0, config%perturb, config%scale, config%seed, &
@@ -349,7 +350,8 @@ contains
         sink%label = "holosym ensemble: "
         sink%samples_dir = config%samples
         if (.not. config%quiet) sink%progress_unit = err_unit
-        description = "holosym ensemble system=" // config%system // " M=" // &
+        if (.not. allocated(identity)) identity = config%source%label()
+        description = "holosym ensemble system=" // identity // " M=" // &
             int_str(config%order_m) // " N=" // int_str(config%order_n) // " G=" // &
             int_str(config%gauss_points) // " h=" // csv_real(config%step_size) // " T=" // &
             csv_real(config%final_time) // " project=" // &
@@ -365,7 +367,7 @@ contains
         end if
         if (.not. allocated(skip)) allocate (skip(size(states%id)), source=.false.)
         if (collector .and. .not. config%quiet) write (err_unit, '(a)') &
-            "holosym ensemble: " // config%system // " (n = " // int_str(sys%n) // &
+            "holosym ensemble: " // config%source%label() // " (n = " // int_str(sys%n) // &
             ", m = " // int_str(sys%m) // "), (M, N, G) = (" // int_str(config%order_m) // &
             ", " // int_str(config%order_n) // ", " // int_str(config%gauss_points) // "), " &
             // int_str(size(states%id)) // " trajectories, " // int_str(count(skip)) // &

@@ -14,8 +14,7 @@ module holosym_cli_simulate
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_manifold, only: manifold_residuals
     use holosym_observers, only: trajectory_header
-    use holosym_systems, only: make_system, is_system_name, system_names, system_choices, &
-        default_links, max_links
+    use holosym_systems, only: system_source_t, make_source_system
     use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
     use holosym_output, only: output_t, open_output
     use holosym_cli_common, only: parsed_command_proceeds, &
@@ -45,10 +44,8 @@ module holosym_cli_simulate
 
     !> Options of `holosym simulate`, after parsing and defaulting.
     type :: simulate_config_t
-        !> System name, one of `system_names`.
-        character(len=:), allocatable :: system
-        !> Links of the chain (--links, only with --system chain).
-        integer :: links = default_links
+        !> The system: built-in (--system, --links) or a model file (--model, --set).
+        type(system_source_t) :: source
         !> M >= 1: degree of the displacement polynomial.
         integer :: order_m = default_order_m
         !> N >= 0: degree of the momentum polynomial (default M - 1).
@@ -133,8 +130,9 @@ contains
         text = join_lines([character(len=96) :: &
             "Usage: holosym simulate [options]", &
             "", &
-            "Integrate a constrained Hamiltonian system from its initial state with the", &
-            "symplectic scheme (M, N, G) and write the trajectory as CSV to standard output.", &
+            "Integrate a constrained Hamiltonian system (built in, or from a model file) from", &
+            "its initial state with the symplectic scheme (M, N, G) and write the trajectory", &
+            "as CSV to standard output.", &
             "", &
             "Options (also accepted as --name=value):", &
             "  --system NAME  pendulum: spherical pendulum, paper Example 1 (n = 3, m = 1)", &
@@ -150,6 +148,9 @@ contains
             "                           symmetry (n = 3, m = 1)              [pendulum]", &
             "  --links K      links of the chain, 1 to 100000; cost and memory per step", &
             "                 grow linearly with K                           [8]", &
+            "  --model FILE   the system of a model file instead of --system (docs/models.md);", &
+            "                 its initial state, projected onto the constraints if off them", &
+            "  --set NAME=X   set parameter NAME of the model to the number X (repeatable)", &
             "  --M INT        degree of the displacement polynomial, 1..30   [2]", &
             "  --N INT        degree of the momentum polynomial, 0..30       [M - 1]", &
             "  --G INT        Gauss-Legendre points, N+1..64                 [max(M, N) + 1]", &
@@ -182,8 +183,9 @@ contains
             "of the integrator or of the output (rows already written are kept; a full disk,", &
             "a full device or a closed standard output is a failure), 2 bad usage.", &
             "", &
-            "Example:", &
-            "  holosym simulate --system linkage --M 3 --N 2 --G 4 --h 0.0625 --T 1"])
+            "Examples:", &
+            "  holosym simulate --system linkage --M 3 --N 2 --G 4 --h 0.0625 --T 1", &
+            "  holosym simulate --model example/models/fourbar.hsm --set omega=3 --M 4 --T 5"])
     end function simulate_help
 
     !> Parse the options of `simulate` (the arguments after the command name). On success
@@ -195,10 +197,9 @@ contains
         type(simulate_config_t), intent(out) :: config    !! parsed settings
         type(holosym_status_t), intent(out) :: status     !! outcome
         character(len=:), allocatable :: name, inline, value
-        logical :: has_inline, n_given, g_given, t_given, steps_given, links_given
+        logical :: has_inline, n_given, g_given, t_given, steps_given, taken
         integer :: i
 
-        config%system = system_names(1)
         config%output = ""
         config%note = ""
         status%code = HOLOSYM_SUCCESS
@@ -207,7 +208,6 @@ contains
         g_given = .false.
         t_given = .false.
         steps_given = .false.
-        links_given = .false.
         i = 1
         do while (i <= size(args))
             call split_option(args(i)%text, name, inline, has_inline)
@@ -228,10 +228,11 @@ contains
                 end if
                 config%plain = .true.
             case ("--system", "--M", "--m", "--N", "--n", "--G", "--g", "--h", "--T", "--t", &
-                  "--steps", "--every", "--output", "--links")
+                  "--steps", "--every", "--output", "--links", "--model", "--set")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
-                call set_option(config, name, value, status)
+                call config%source%take(name, value, taken, status)
+                if (.not. taken) call set_option(config, name, value, status)
                 if (.not. status%ok()) return
                 select case (name)
                 case ("--N", "--n")
@@ -242,8 +243,6 @@ contains
                     t_given = .true.
                 case ("--steps")
                     steps_given = .true.
-                case ("--links")
-                    links_given = .true.
                 end select
             case default
                 if (name(1:min(1, len(name))) == "-") then
@@ -255,10 +254,8 @@ contains
             end select
             i = i + 1
         end do
-        if (links_given .and. config%system /= "chain") then
-            call fail(status, "option --links needs --system chain")
-            return
-        end if
+        call config%source%check(status)
+        if (.not. status%ok()) return
         call default_orders(config%order_m, config%order_n, config%gauss_points, n_given, &
                             g_given, status)
         if (.not. status%ok()) return
@@ -287,13 +284,6 @@ contains
         status%code = HOLOSYM_SUCCESS
         status%message = ""
         select case (name)
-        case ("--system")
-            if (is_system_name(value)) then
-                config%system = value
-            else
-                call fail(status, "option --system: unknown system '" // value // &
-                    "'; choose " // system_choices)
-            end if
         case ("--M", "--m")
             call parse_integer_in(name, value, 1, max_order_m, config%order_m, status)
         case ("--N", "--n")
@@ -312,10 +302,6 @@ contains
             call parse_integer_in(name, value, 1, huge(1), config%every, status)
         case ("--output")
             config%output = value
-        case ("--links")
-            call parse_integer(name, value, config%links, status)
-            if (status%ok()) call require(config%links >= 1 .and. config%links <= max_links, &
-                "in 1.." // int_str(max_links))
         end select
     contains
         !> Fail with "option NAME must be BOUND; got VALUE" unless `condition` holds.
@@ -394,8 +380,9 @@ contains
         real(wp), allocatable :: q(:), p(:)
         integer(int64) :: clock_end
         integer :: steps_done
+        character(len=:), allocatable :: note
 
-        call make_system(config%system, sys, q, p, status, config%links)
+        call make_source_system(config%source, sys, q, p, status, note)
         if (.not. status%ok()) return
         if (config%plain) then
             integrator%structured = .false.
@@ -418,7 +405,8 @@ contains
         end if
         if (len(config%note) > 0) write (err_unit, '(a)') "holosym simulate: note: " // &
             config%note
-        write (err_unit, '(a)') "holosym simulate: " // config%system // " (n = " // &
+        if (len(note) > 0) write (err_unit, '(a)') "holosym simulate: note: " // note
+        write (err_unit, '(a)') "holosym simulate: " // config%source%label() // " (n = " // &
             int_str(sys%n) // ", m = " // int_str(sys%m) // "), (M, N, G) = (" // &
             int_str(config%order_m) // ", " // int_str(config%order_n) // ", " // &
             int_str(config%gauss_points) // "), h = " // real_str(config%step_size) // ", " // &

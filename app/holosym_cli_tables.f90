@@ -19,7 +19,7 @@ module holosym_cli_tables
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
-    use holosym_systems, only: make_system, is_system_name, system_names, system_choices
+    use holosym_systems, only: system_source_t, make_source_system
     use holosym_task_farm, only: farm_job, task_farm
     use holosym_records, only: record_reader_t, put
     implicit none
@@ -52,7 +52,7 @@ module holosym_cli_tables
 
     !> Options of `holosym tables`.
     type :: tables_options_t
-        character(len=:), allocatable :: system  !! a name of holosym_systems
+        type(system_source_t) :: source          !! built-in system or model file
         real(wp) :: span = 10                    !! T
         real(wp), allocatable :: step_sizes(:)   !! h list, largest first
         integer :: max_m = default_max_order     !! largest M
@@ -109,6 +109,8 @@ contains
             "Options:", &
             "  --system NAME   pendulum (default), linkage, planar, double, dumbbell,", &
             "                  magnetic or generic (see holosym simulate --help)", &
+            "  --model FILE    the system of a model file instead (docs/models.md)", &
+            "  --set NAME=X    set parameter NAME of the model to X (repeatable)", &
             "  --T T           time span of every run, > 0 (default 10)", &
             "  --h LIST        step sizes, largest first, comma separated, > 0", &
             "                  (default 0.5,0.25,0.125,0.0625,0.03125); T/h must give", &
@@ -127,10 +129,9 @@ contains
         type(tables_options_t), intent(out) :: options !! parsed settings
         type(holosym_status_t), intent(out) :: status  !! outcome
         character(len=:), allocatable :: name, inline, value
-        logical :: has_inline, h_given, m_given, n_given
+        logical :: has_inline, h_given, m_given, n_given, taken
         integer :: i
 
-        options%system = system_names(1)
         options%csv_dir = ""
         status%code = HOLOSYM_SUCCESS
         status%message = ""
@@ -146,15 +147,12 @@ contains
                 return
             case ("--quick")
                 options%quick = .true.
-            case ("--system", "--T", "--h", "--Mmax", "--Nmax", "--csv")
+            case ("--system", "--model", "--set", "--T", "--h", "--Mmax", "--Nmax", "--csv")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
+                call options%source%take(name, value, taken, status)
+                if (.not. status%ok()) return
                 select case (name)
-                case ("--system")
-                    options%system = value
-                    if (.not. is_system_name(value)) call fail(status, &
-                        "option --system: unknown system '" // value // "'; choose " // &
-                        system_choices)
                 case ("--T")
                     call parse_real(name, value, options%span, status)
                     if (status%ok() .and. .not. options%span > 0) call fail(status, &
@@ -184,6 +182,8 @@ contains
             if (.not. h_given) options%step_sizes = default_steps(1:4)
         end if
         if (.not. h_given .and. .not. options%quick) options%step_sizes = default_steps
+        call options%source%check(status)
+        if (.not. status%ok()) return
         call check_step_counts(options%span, options%step_sizes, status)
     end subroutine parse_tables_options
 
@@ -260,11 +260,14 @@ contains
         type(holosym_status_t), allocatable :: search_status(:, :)
         integer :: order_m, order_n, i, max_n_table2
         integer(int64) :: count_start, count_end, count_rate
+        character(len=:), allocatable :: note
 
         call system_clock(count_start, count_rate)
-        call make_system(options%system, sys, q0, p0, status)
+        call make_source_system(options%source, sys, q0, p0, status, note)
         if (.not. status%ok()) return
-        result%system = options%system
+        if (len(note) > 0 .and. options%progress) write (err_unit, '(a)') &
+            "holosym tables: note: " // note
+        result%system = options%source%label()
         result%settings%span = options%span
         result%settings%step_sizes = options%step_sizes
         result%settings%progress = options%progress

@@ -58,11 +58,21 @@ module holosym_reduced_layout
         integer :: colors = 0  !! number of colours
         integer :: kl = 0      !! subdiagonals of the pattern
         integer :: ku = 0      !! superdiagonals of the pattern
-        logical :: sparse = .false. !! a sparse pattern was declared (Phi or Hessian of U)
+        !> Second derivatives by differences along the colours: a sparse pattern was
+        !! declared (Phi or Hessian of U) and the dense ones would be large.
+        logical :: sparse = .false.
     contains
         !> Build the layout for a system's declared sparsity and M.
         procedure :: build => layout_build
     end type reduced_layout_t
+
+    !> Entries of the dense second derivatives (n x n for each of d2H/dq2, d2H/dqdp,
+    !! d2H/dp2 and the m constraints) up to which the Newton matrix takes them from the
+    !! system's `hessian` and `constraint_hessian`, even when a sparse pattern is declared:
+    !! filling that little storage costs less than the colours' gradient differences, and
+    !! a system's own second derivatives (exact for model files and the built-in models)
+    !! are more accurate than differences. Beyond it a declared sparsity is used.
+    integer(int64), parameter :: dense_derivative_entries = 1024
 
 contains
 
@@ -117,8 +127,9 @@ contains
         self%nx = int(unknowns)
         self%phi_rows = phi_rows
         self%phi_cols = phi_cols
-        self%sparse = size(phi_rows, kind=int64) < int(n, int64) * m .or. &
-            size(hess_rows, kind=int64) < int(n, int64)**2
+        self%sparse = (size(phi_rows, kind=int64) < int(n, int64) * m .or. &
+            size(hess_rows, kind=int64) < int(n, int64)**2) .and. &
+            int(n, int64)**2 * (m + 3) > dense_derivative_entries
         call incidence(self)
         call coupling(self, hess_rows, hess_cols, status)
         if (.not. status%ok()) return

@@ -70,6 +70,8 @@ module holosym_formula_model
         integer, allocatable, private :: u_first(:), u_second(:)
         !> H = sum_i p_i^2 / (2 m_i) + U(q) with constant m_i (from the graph).
         logical, private :: separable = .false.
+        !> A digest of the model's text (hexadecimal).
+        character(len=16), private :: digest = ""
     contains
         procedure :: hamiltonian => model_hamiltonian
         procedure :: dh_dq => model_dh_dq
@@ -110,6 +112,8 @@ module holosym_formula_model
         procedure :: tape_lengths => model_tape_lengths
         !> Whether H was found to have the separable form (masses constant).
         procedure :: is_separable => model_is_separable
+        !> A digest of the model's text, to tell two versions of a file apart.
+        procedure :: text_digest => model_text_digest
     end type formula_model
 
 contains
@@ -180,6 +184,7 @@ contains
         end if
         model%n = size(model%definition%coordinates)
         model%m = size(model%definition%constraints)
+        model%digest = text_digest(lines)
         allocate (model%assigned(size(model%definition%parameters)))
         model%assigned = .false.
         call evaluate_parameters(model, status)
@@ -617,12 +622,18 @@ contains
         if (local%ok()) then
             if (self%definition%velocities) then
                 v0 = p0
-                call manifold_residuals(self, q0, 0 * v0, position, velocity, scaled_q)
+                call tangency(self, q0, v0, position, velocity, scaled_q, scaled_p)
                 call state_from_velocities(self, q0, v0, p0, local, report=projection)
                 if (local%ok() .and. scaled_q > manifold_tolerance_default) done = &
                     "the initial positions are off the constraints by " // &
                     real_str(position) // "; projected (moved by " // &
                     real_str(projection%position_shift) // ")"
+                if (local%ok() .and. scaled_p > manifold_tolerance_default) then
+                    if (len(done) > 0) done = done // "; "
+                    done = done // "the initial velocities are not tangent to the " // &
+                        "constraints (|Phi v| = " // real_str(velocity) // "); their normal " // &
+                        "part removed"
+                end if
             else
                 call manifold_residuals(self, q0, p0, position, velocity, scaled_q, scaled_p)
                 if (scaled_q > manifold_tolerance_default .or. &
@@ -647,6 +658,30 @@ contains
             error stop local%message
         end if
     end subroutine model_initial_state
+
+    !> Residuals of positions q and velocities v: max |phi(q)| and max |Phi(q) v|, and
+    !! both scaled as `manifold_residuals` scales them.
+    subroutine tangency(self, q, v, position, velocity, scaled_q, scaled_v)
+        class(formula_model), intent(in) :: self
+        real(wp), intent(in) :: q(:), v(:)
+        real(wp), intent(out) :: position, velocity, scaled_q, scaled_v
+        real(wp) :: phi(self%m), jac(self%m, self%n), hidden(self%m)
+        integer :: l
+        position = 0
+        velocity = 0
+        scaled_q = 0
+        scaled_v = 0
+        if (self%m == 0) return
+        call self%constraint(q, phi)
+        call self%constraint_jacobian(q, jac)
+        hidden = matmul(jac, v)
+        position = maxval(abs(phi))
+        velocity = maxval(abs(hidden))
+        do l = 1, self%m
+            scaled_q = max(scaled_q, abs(phi(l)) / (1 + maxval(abs(q)) * maxval(abs(jac(l, :)))))
+            scaled_v = max(scaled_v, abs(hidden(l)) / (1 + sum(abs(jac(l, :)) * abs(v))))
+        end do
+    end subroutine tangency
 
     ! ------------------------------------------------------------------ parameters
 
@@ -803,6 +838,38 @@ contains
         class(formula_model), intent(in) :: self
         yes = self%separable
     end function model_is_separable
+
+    !> A digest of the lines (with their ends): two polynomial hashes modulo 2**31 - 1, in
+    !! hexadecimal (no integer overflow anywhere).
+    function text_digest(lines) result(hex)
+        type(text_line_t), intent(in) :: lines(:)
+        character(len=16) :: hex
+        integer(int64), parameter :: modulus = 2147483647_int64
+        integer(int64) :: a, b
+        integer :: k, c
+        a = 0
+        b = 1
+        do k = 1, size(lines)
+            do c = 1, len(lines(k)%text)
+                call mix(iachar(lines(k)%text(c:c)))
+            end do
+            call mix(10)
+        end do
+        write (hex, '(2z8.8)') a, b
+    contains
+        subroutine mix(byte)
+            integer, intent(in) :: byte
+            a = modulo(a * 257 + byte, modulus)
+            b = modulo(b * 65599 + byte, modulus)
+        end subroutine mix
+    end function text_digest
+
+    !> The digest of the model's text.
+    function model_text_digest(self) result(hex)
+        class(formula_model), intent(in) :: self
+        character(len=:), allocatable :: hex
+        hex = trim(self%digest)
+    end function model_text_digest
 
     ! ------------------------------------------------------------------ bindings
 

@@ -982,6 +982,7 @@ contains
         character(len=:), allocatable :: text
         integer :: k, best, distance, best_distance
         text = ""
+        if (len(name) < 2) return
         best = 0
         best_distance = 3
         do k = 1, size(candidates)
