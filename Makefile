@@ -31,6 +31,8 @@
 #                             build/venv); FIGURES_PNG=DIR draws elsewhere (CI)
 #   make reference            the models' 50-digit reference solutions (mpmath, ~10 min)
 #                             into test/data/model_reference.csv
+#   make reference-formula    the same for example/models/water.hsm and fourbar.hsm
+#                             into test/data/formula_reference.csv
 #   make c-example            example/c built with gcc against the real128 library and run
 #   make c-example64          the same with the real64 library (double)
 # Ensembles and MPI:
@@ -73,7 +75,7 @@ CMAKE_DIR ?= build/cmake
 	pendulum linkage examples clean install check-install check-fpm-install cmake-deps \
 	cmake-test flang-deps test-flang check-examples check-version check-fpm-dependency \
 	profile docs docs-deps docs-tables docs-stability docs-performance mpi test-mpi scaling \
-	venv figures reference c-example c-example64
+	venv figures reference reference-formula c-example c-example64
 # Run-time checks, and floating-point exceptions that stop the program (SIGFPE).
 TRAP_FLAGS ?= --flag "-g -fbacktrace -fcheck=all -ffpe-trap=invalid,zero,overflow"
 
@@ -172,6 +174,11 @@ figures: deps include-digest venv
 # The models' independent reference states (50-digit index-1 solutions; ~10 minutes).
 reference: venv
 	$(VENV)/bin/python tools/reference/model_reference.py test/data/model_reference.csv
+
+# The same for the formula models example/models/water.hsm and fourbar.hsm, from the
+# files' exact starts (50 digits, not rounded to binary128).
+reference-formula: venv
+	$(VENV)/bin/python tools/reference/formula_reference.py test/data/formula_reference.csv
 
 # The C example against the installed library, built with gcc and run (fails on a failed
 # check).

@@ -1,7 +1,8 @@
 /* holosym: C interface (src/capi/holosym_c.F90).
  *
- * Symplectic integration of a Hamiltonian system with holonomic constraints given by C
- * callbacks: H(q, p), dH/dq, dH/dp, phi(q) and Phi(q) = dphi/dq.
+ * Symplectic integration of a Hamiltonian system with holonomic constraints, given by C
+ * callbacks (H(q, p), dH/dq, dH/dp, phi(q) and Phi(q) = dphi/dq: holosym_create) or by the
+ * text of a model file, which the library differentiates itself (holosym_model_create).
  *
  * Reals: holosym_real is __float128 in the default (real128) build of the library and
  * double when both the library and the C code are built with -DHOLOSYM_REAL64.
@@ -41,11 +42,14 @@ typedef __float128 holosym_real;
 #define HOLOSYM_USER_ABORT (-7)                 /* the observer returned nonzero */
 #define HOLOSYM_NOT_INITIALIZED (-8)            /* NULL handle, failed create, no step yet */
 #define HOLOSYM_INVALID_ARGUMENT (-9)           /* NULL callback, NaN input, tau not in [0,1] */
+#define HOLOSYM_INVALID_MODEL (-10)             /* model text refused: "model:LINE:COLUMN: ..." */
 #define HOLOSYM_SINGULAR_MATRIX 1
 #define HOLOSYM_NEWTON_NOT_CONVERGED 2
 #define HOLOSYM_NEWTON_DIVERGED 3
 #define HOLOSYM_NONFINITE_VALUE 4               /* also: a callback returned nonzero */
 #define HOLOSYM_RANK_DEFICIENT_CONSTRAINTS 5
+#define HOLOSYM_STEP_TOO_LARGE 6                /* spurious root, unresolved motion, h huge */
+#define HOLOSYM_STEP_TOO_SMALL 7                /* h below the resolution of the state */
 
 /* Callbacks: return 0 on success; anything else fails the call that needed the value
  * (HOLOSYM_NONFINITE_VALUE, the message names the callback and the value returned). */
@@ -109,6 +113,46 @@ int holosym_dense_output(const holosym_integrator *integrator, holosym_real tau,
 
 /* Project (q, p) onto the constraint manifold {phi = 0, Phi dH/dp = 0} in place. */
 int holosym_project(holosym_integrator *integrator, holosym_real *q, holosym_real *p);
+
+/* The system's numbers of coordinates n and constraints m (either pointer may be NULL). */
+int holosym_sizes(const holosym_integrator *integrator, int *n, int *m);
+
+/* ---- Systems from formulas (docs/models.md has the grammar) ---- */
+
+/* A handle for the system of a model text (lines separated by '\n', NUL-terminated) and
+ * the scheme (M, N, G): the library derives the gradients, second derivatives, sparsity and
+ * structure itself. NULL only for a NULL text; otherwise check holosym_status:
+ * HOLOSYM_INVALID_MODEL with "model:LINE:COLUMN: what is wrong" for a text refused. */
+holosym_integrator *holosym_model_create(const char *model, int M, int N, int G);
+
+/* Set a parameter of the model by name (the integrator is set up again: masses may change);
+ * HOLOSYM_INVALID_ARGUMENT for an unknown name or a value that is not finite. */
+int holosym_model_set_parameter(holosym_integrator *integrator, const char *name,
+                                holosym_real value);
+
+/* The value of a parameter of the model. */
+int holosym_model_get_parameter(holosym_integrator *integrator, const char *name,
+                                holosym_real *value);
+
+/* The initial state the model states (q[n], p[n]), with the current parameters, velocities
+ * turned into momenta and projected onto the constraint manifold when off it (the message
+ * then says so). HOLOSYM_INVALID_ARGUMENT when the model states none. */
+int holosym_model_initial_state(holosym_integrator *integrator, holosym_real *q,
+                                holosym_real *p);
+
+/* Number of the model's parameters (negative: a status code, e.g. not a model). */
+int holosym_model_parameter_count(holosym_integrator *integrator);
+
+/* What holosym_model_name names. */
+#define HOLOSYM_NAME_PARAMETER 0
+#define HOLOSYM_NAME_COORDINATE 1
+#define HOLOSYM_NAME_MOMENTUM 2
+
+/* The name of parameter, coordinate or momentum `index` (from 1) into buffer
+ * (NUL-terminated, at most size - 1 characters); returns its full length, or a negative
+ * status code. */
+int holosym_model_name(holosym_integrator *integrator, int what, int index, char *buffer,
+                       int size);
 
 #ifdef __cplusplus
 }

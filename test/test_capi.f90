@@ -9,12 +9,17 @@ module test_capi
     use holosym_kinds, only: wp
     use holosym_status, only: HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_STEP_SIZE, &
-        HOLOSYM_NOT_INITIALIZED, HOLOSYM_NONFINITE_VALUE, HOLOSYM_USER_ABORT
+        HOLOSYM_NOT_INITIALIZED, HOLOSYM_NONFINITE_VALUE, HOLOSYM_USER_ABORT, &
+        HOLOSYM_INVALID_MODEL, holosym_status_t
     use holosym_integrator, only: constrained_integrator
     use holosym_models, only: planar_pendulum
     use holosym_c, only: holosym_system_c, c_real, holosym_create, holosym_destroy, &
         holosym_status, holosym_message, holosym_step, holosym_integrate, &
-        holosym_dense_output, holosym_project
+        holosym_dense_output, holosym_project, holosym_sizes, holosym_model_create, &
+        holosym_model_set_parameter, holosym_model_get_parameter, &
+        holosym_model_initial_state, holosym_model_parameter_count, holosym_model_name, &
+        name_parameter_c, name_coordinate_c, name_momentum_c
+    use holosym_formula_model, only: formula_model, load_model
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
@@ -30,7 +35,9 @@ contains
         tests = [ &
             new_test("pendulum_through_the_c_interface", pendulum_through_c), &
             new_test("observer_and_dense_output", observer_and_dense), &
-            new_test("rejects_bad_input", bad_input)]
+            new_test("rejects_bad_input", bad_input), &
+            new_test("model_through_the_c_interface", model_through_c), &
+            new_test("model_calls_reject_bad_input", model_bad_input)]
     end function capi_tests
 
     ! ---------------------------------------------------------------- C callbacks
@@ -276,5 +283,149 @@ contains
         call holosym_destroy(handle)
         call holosym_destroy(c_null_ptr)
     end subroutine bad_input
+
+    ! ---------------------------------------------------------------- models
+
+    !> A Fortran string as a NUL-terminated C string.
+    function c_text(text) result(chars)
+        character(len=*), intent(in) :: text
+        character(kind=c_char), allocatable :: chars(:)
+        integer :: i
+        allocate (chars(len(text) + 1))
+        do i = 1, len(text)
+            chars(i) = text(i:i)
+        end do
+        chars(len(text) + 1) = achar(0)
+    end function c_text
+
+    !> The whole text of a file, lines joined by line feeds.
+    function file_text(path) result(text)
+        character(len=*), intent(in) :: path
+        character(len=:), allocatable :: text
+        character(len=4096) :: line
+        integer :: unit, ios
+        text = ""
+        open (newunit=unit, file=path, status="old", action="read")
+        do
+            read (unit, '(a)', iostat=ios) line
+            if (ios /= 0) exit
+            text = text // trim(line) // achar(10)
+        end do
+        close (unit)
+    end function file_text
+
+    !> The four-bar model through holosym_model_create: sizes, names, the initial state
+    !! and 40 steps agree with the Fortran model and integrator to the bit; a parameter set
+    !! through the handle changes the start.
+    subroutine model_through_c(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(kind=c_char), allocatable, target :: text(:), name(:)
+        type(c_ptr) :: handle
+        type(formula_model) :: model
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        integer(c_int), target :: n, m, done
+        real(c_real), target :: q(4), p(4), value
+        real(wp) :: qf(4), pf(4)
+        character(kind=c_char) :: buffer(16)
+        text = c_text(file_text("example/models/fourbar.hsm"))
+        handle = holosym_model_create(c_loc(text), 4_c_int, 3_c_int, 5_c_int)
+        call check_status_code(error, int(holosym_status(handle)), HOLOSYM_SUCCESS, &
+            message_of(handle))
+        if (allocated(error)) return
+        call check_status_code(error, int(holosym_sizes(handle, c_loc(n), c_loc(m))), &
+            HOLOSYM_SUCCESS, "sizes")
+        call check(error, n == 4 .and. m == 3, "n = 4, m = 3")
+        call check(error, holosym_model_parameter_count(handle) == 9, "9 parameters")
+        n = holosym_model_name(handle, name_momentum_c, 2_c_int, buffer, 16_c_int)
+        call check(error, n == 3 .and. all(buffer(1:4) == ["p", "y", "b", achar(0)]), &
+            "momentum 2 is pyb")
+        if (allocated(error)) return
+        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+            HOLOSYM_SUCCESS, message_of(handle))
+        call check(error, index(message_of(handle), "not tangent") > 0, "the start's note")
+        call check_status_code(error, int(holosym_integrate(handle, q, p, 1.0_c_real / 32, &
+            40_c_int, c_null_funptr, c_null_ptr, c_loc(done))), HOLOSYM_SUCCESS, &
+            message_of(handle))
+        if (allocated(error)) return
+        call load_model("example/models/fourbar.hsm", model, status)
+        call model%initial_state(qf, pf, status)
+        call integ%init(model, 4, 3, 5, status)
+        call integ%integrate(model, qf, pf, 1.0_wp / 32, 40, status=status)
+        call check(error, all(real(q, wp) == qf) .and. all(real(p, wp) == pf), &
+            "the C handle and the Fortran integrator differ")
+        if (allocated(error)) return
+        name = c_text("omega")
+        call check_status_code(error, int(holosym_model_set_parameter(handle, c_loc(name), &
+            3.0_c_real)), HOLOSYM_SUCCESS, message_of(handle))
+        call check_status_code(error, int(holosym_model_get_parameter(handle, c_loc(name), &
+            c_loc(value))), HOLOSYM_SUCCESS, message_of(handle))
+        call check(error, value == 3, "omega reads back 3")
+        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+            HOLOSYM_SUCCESS, message_of(handle))
+        call model%set_parameter("omega", 3.0_wp)
+        call model%initial_state(qf, pf, status)
+        call check(error, all(real(p, wp) == pf), "the start follows omega")
+        call holosym_destroy(handle)
+    end subroutine model_through_c
+
+    !> Bad model text, names, indices and handles: each call fails with its code and a
+    !! message, and leaves the arrays unchanged.
+    subroutine model_bad_input(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(kind=c_char), allocatable, target :: text(:), name(:)
+        type(c_ptr) :: handle, callbacks
+        type(holosym_system_c), target :: system
+        real(c_real) :: q(2), p(2)
+        real(c_real), target :: value
+        character(kind=c_char) :: buffer(16)
+        text = c_text("coordinates x y" // achar(10) // "momenta px py" // achar(10) // &
+            "hamiltonian px^2 + z")
+        handle = holosym_model_create(c_loc(text), 2_c_int, 1_c_int, 3_c_int)
+        call check_status_code(error, int(holosym_status(handle)), HOLOSYM_INVALID_MODEL, &
+            "bad model")
+        call check(error, index(message_of(handle), "model:3:20: unknown name 'z'") == 1, &
+            message_of(handle))
+        q = 7
+        p = 8
+        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+            HOLOSYM_NOT_INITIALIZED, "initial state of a refused model")
+        call check_status_code(error, int(holosym_step(handle, q, p, 0.1_c_real)), &
+            HOLOSYM_NOT_INITIALIZED, "step of a refused model")
+        call check(error, all(q == 7) .and. all(p == 8), "arrays unchanged")
+        call holosym_destroy(handle)
+        if (allocated(error)) return
+        call check(error, .not. c_associated(holosym_model_create(c_null_ptr, 2_c_int, &
+            1_c_int, 3_c_int)), "NULL text gives NULL")
+        text = c_text("coordinates x y" // achar(10) // "momenta px py" // achar(10) // &
+            "parameters g = 1" // achar(10) // "hamiltonian (px^2 + py^2)/2 + g*y" // &
+            achar(10) // "constraint x^2 + y^2 - 1")
+        handle = holosym_model_create(c_loc(text), 2_c_int, 1_c_int, 3_c_int)
+        call check_status_code(error, int(holosym_status(handle)), HOLOSYM_SUCCESS, &
+            message_of(handle))
+        name = c_text("gg")
+        call check_status_code(error, int(holosym_model_set_parameter(handle, c_loc(name), &
+            2.0_c_real)), HOLOSYM_INVALID_ARGUMENT, "unknown parameter")
+        call check(error, index(message_of(handle), "no parameter 'gg' (its parameters: g)") &
+            > 0, message_of(handle))
+        call check_status_code(error, int(holosym_model_get_parameter(handle, c_null_ptr, &
+            c_loc(value))), HOLOSYM_INVALID_ARGUMENT, "NULL name")
+        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+            HOLOSYM_INVALID_ARGUMENT, "no initial state")
+        call check(error, index(message_of(handle), "states no initial state") > 0, &
+            message_of(handle))
+        call check(error, holosym_model_name(handle, 7_c_int, 1_c_int, buffer, 16_c_int) == &
+            HOLOSYM_INVALID_ARGUMENT .and. holosym_model_name(handle, name_coordinate_c, &
+            3_c_int, buffer, 16_c_int) == HOLOSYM_INVALID_ARGUMENT, "name out of range")
+        call holosym_destroy(handle)
+        if (allocated(error)) return
+        system = pendulum_struct()
+        callbacks = holosym_create(c_loc(system), 2_c_int, 1_c_int, 3_c_int)
+        call check_status_code(error, int(holosym_model_initial_state(callbacks, q, p)), &
+            HOLOSYM_INVALID_ARGUMENT, "a handle of callbacks is not a model")
+        call check(error, index(message_of(callbacks), "made by holosym_create") > 0, &
+            message_of(callbacks))
+        call holosym_destroy(callbacks)
+    end subroutine model_bad_input
 
 end module test_capi

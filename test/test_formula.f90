@@ -3,7 +3,7 @@
 !! differences), the compiled forms in both precisions, parameters by name, initial
 !! states, and the model twins of the built-in systems integrated side by side with them.
 module test_formula
-    use holosym_kinds, only: wp, dp
+    use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_MODEL, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
@@ -14,7 +14,9 @@ module test_formula
     use holosym_model_dumbbell, only: sphere_dumbbell
     use holosym_model_magnetic, only: magnetic_sphere
     use holosym_model_generic, only: generic_pendulum
-    use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
+    use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
+        split_field
+    use holosym_test_commands, only: command_result_t, run_shell, scratch_path
     implicit none
     private
     public :: formula_tests
@@ -46,7 +48,9 @@ contains
             new_test("structure_found_or_not", structure_cases), &
             new_test("parameters_by_name", parameters_by_name), &
             new_test("initial_states_projected_or_refused", initial_states), &
-            new_test("every_error_has_a_position", error_messages)]
+            new_test("every_error_has_a_position", error_messages), &
+            new_test("large_chain_as_the_builtin", large_chain), &
+            new_test("water_and_fourbar_match_40_digit_references", independent_references)]
     end function formula_tests
 
     !> The built-in system a twin stands for, with its initial state.
@@ -602,6 +606,209 @@ contains
                 real_str(velocity))
         end subroutine manifold_check
     end subroutine initial_states
+
+    !> The model text of a chain of K pendula (as tools/chain_model.py writes it, with
+    !! unit masses and lengths): large enough that the graph grows many times while it is
+    !! read and differentiated.
+    function chain_text(links) result(source)
+        integer, intent(in) :: links
+        character(len=:), allocatable :: source
+        character(len=16) :: i, j
+        integer :: k
+        source = "parameters m = 1, l = 1, g = 1" // new_line("a") // "coordinates"
+        do k = 1, links
+            write (i, '(i0)') k
+            source = source // " x" // trim(i) // " y" // trim(i)
+        end do
+        source = source // new_line("a") // "momenta"
+        do k = 1, links
+            write (i, '(i0)') k
+            source = source // " px" // trim(i) // " py" // trim(i)
+        end do
+        source = source // new_line("a") // "hamiltonian (0"
+        do k = 1, links
+            write (i, '(i0)') k
+            source = source // " + px" // trim(i) // "^2 + py" // trim(i) // "^2"
+        end do
+        source = source // ")/(2*m) + g*m*(0"
+        do k = 1, links
+            write (i, '(i0)') k
+            source = source // " + y" // trim(i)
+        end do
+        source = source // ")" // new_line("a") // "constraint x1^2 + y1^2 - l^2" // &
+            new_line("a")
+        do k = 2, links
+            write (i, '(i0)') k
+            write (j, '(i0)') k - 1
+            source = source // "constraint (x" // trim(i) // " - x" // trim(j) // ")^2 + (y" &
+                // trim(i) // " - y" // trim(j) // ")^2 - l^2" // new_line("a")
+        end do
+        ! The start at 0.5 rad: partial sums of the rods, as named subexpressions.
+        source = source // "let dx = l*sin(0.5), dy = -l*cos(0.5)" // new_line("a") // &
+            "let X1 = dx, Y1 = dy" // new_line("a")
+        do k = 2, links
+            write (i, '(i0)') k
+            write (j, '(i0)') k - 1
+            source = source // "let X" // trim(i) // " = X" // trim(j) // " + dx, Y" // &
+                trim(i) // " = Y" // trim(j) // " + dy" // new_line("a")
+        end do
+        source = source // "initial"
+        do k = 1, links
+            write (i, '(i0)') k
+            source = source // " x" // trim(i) // " = X" // trim(i) // ", y" // trim(i) // &
+                " = Y" // trim(i)
+        end do
+    end function chain_text
+
+    !> Chains of 56 to 66 links from formulas (the graph grows past its first capacity at
+    !! a different statement for each) start where the built-in chain starts; for 64 links
+    !! every binding equals the built-in chain's at a generic point, and the derived
+    !! patterns are the chain's.
+    subroutine large_chain(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(formula_model) :: model
+        type(pendulum_chain) :: chain
+        real(wp) :: q(128), p(128), a(128), b(128), phi_a(64), phi_b(64)
+        real(wp), allocatable :: values_a(:), jb(:, :)
+        integer, allocatable :: rows(:), cols(:)
+        real(dp) :: ad(128), bd(128)
+        real(wp), allocatable :: q0(:), p0(:), qc(:), pc(:)
+        type(holosym_status_t) :: status
+        type(command_result_t) :: result
+        integer :: k, links
+        do links = 56, 66, 2
+            call loaded(chain_text(links), model, error)
+            if (allocated(error)) return
+            call same_start()
+            if (allocated(error)) return
+            ! The file tools/chain_model.py writes (at 60 and 64 links the graph grows while
+            ! a simplification passes an operand read from the graph's own arrays).
+            call run_shell("python3 tools/chain_model.py " // int_str(links) // " " // &
+                scratch_path("chain.hsm"), result)
+            if (result%exit_code /= 0) cycle
+            call load_model(scratch_path("chain.hsm"), model, status)
+            call check(error, status%ok(), status%message)
+            if (allocated(error)) return
+            call same_start()
+            if (allocated(error)) return
+        end do
+        call loaded(chain_text(64), model, error)
+        if (allocated(error)) return
+        chain = pendulum_chain(64)
+        call chain%state_from_angles([(0.01_wp * k, k = 1, 64)], [(0.02_wp * k, k = 1, 64)], &
+                                     q, p)
+        call check(error, abs(model%hamiltonian(q, p) - chain%hamiltonian(q, p)) <= &
+            64 * eps * abs(chain%hamiltonian(q, p)), "H")
+        call model%dh_dq(q, p, a)
+        call chain%dh_dq(q, p, b)
+        call check(error, all(a == b), "dH/dq")
+        call model%dh_dp(q, p, a)
+        call chain%dh_dp(q, p, b)
+        call check(error, all(a == b), "dH/dp")
+        call model%dh_dq_double(real(q, dp), real(p, dp), ad)
+        call chain%dh_dq_double(real(q, dp), real(p, dp), bd)
+        call check(error, all(ad == bd), "dH/dq in real64")
+        call model%constraint(q, phi_a)
+        call chain%constraint(q, phi_b)
+        call check(error, maxval(abs(phi_a - phi_b)) <= 16 * eps, "phi")
+        if (allocated(error)) return
+        call model%constraint_sparsity(rows, cols)
+        call check(error, size(rows) == 4 * 64 - 2, "Phi has 4K - 2 nonzeros")
+        allocate (values_a(size(rows)), jb(64, 128))
+        call model%constraint_jacobian_values(q, rows, cols, values_a)
+        call chain%constraint_jacobian(q, jb)
+        call check(error, all([(values_a(k) == jb(rows(k), cols(k)), k = 1, size(rows))]), &
+            "Phi's values at the pattern")
+        call model%potential_sparsity(rows, cols)
+        call check(error, size(rows) == 0, "the potential is linear")
+    contains
+        subroutine same_start()
+            allocate (q0(2 * links), p0(2 * links), qc(2 * links), pc(2 * links))
+            call model%initial_state(q0, p0, status)
+            chain = pendulum_chain(links)
+            call chain%state_from_angles([(0.5_wp, k = 1, links)], [(0.0_wp, k = 1, links)], &
+                                         qc, pc)
+            call check(error, status%ok() .and. all(q0 == qc) .and. all(p0 == pc), &
+                int_str(links) // " links: the start differs from the built-in chain's " // &
+                status%message)
+            deallocate (q0, p0, qc, pc)
+        end subroutine same_start
+    end subroutine large_chain
+
+    !> The value of `quantity`(index) of `system` in the reference file (NaN-free: fails
+    !! the test when absent).
+    subroutine reference_values(system, quantity, count, values, error)
+        character(len=*), intent(in) :: system, quantity
+        integer, intent(in) :: count
+        real(wp), intent(out) :: values(count)
+        type(test_error_t), allocatable, intent(inout) :: error
+        character(len=256) :: line
+        character(len=:), allocatable :: field
+        integer :: unit, ios, k, found
+        values = 0
+        found = 0
+        open (newunit=unit, file="test/data/formula_reference.csv", status="old", &
+              action="read", iostat=ios)
+        call check(error, ios == 0, "cannot open test/data/formula_reference.csv")
+        if (allocated(error)) return
+        do
+            read (unit, '(a)', iostat=ios) line
+            if (ios /= 0) exit
+            if (line(1:1) == "#") cycle
+            if (split_field(line, 1, ",") /= system) cycle
+            if (split_field(line, 2, ",") /= quantity) cycle
+            field = split_field(line, 3, ",")
+            read (field, *) k
+            field = split_field(line, 4, ",")
+            read (field, *) values(k)
+            found = found + 1
+        end do
+        close (unit)
+        call check(error, found == count, system // " " // quantity // ": " // &
+            int_str(found) // " values in the reference file")
+    end subroutine reference_values
+
+    !> The water molecule and the four-bar linkage, from their model files, agree with
+    !! independent 50-digit solutions (tools/reference/formula_reference.py, written from
+    !! the formulas; its start is computed from the files exactly) at the start and at
+    !! T = 10: (8, 7, 9) with h = 1/16 (water) and 1/128 (the faster four-bar) reach
+    !! round-off.
+    subroutine independent_references(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(len=*), parameter :: names(2) = ["water  ", "fourbar"]
+        integer, parameter :: steps(2) = [160, 1280]
+        type(formula_model) :: model
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        real(wp), allocatable :: q(:), p(:), q_ref(:), p_ref(:)
+        real(wp) :: start, final
+        integer :: k
+        do k = 1, 2
+            call twin(names(k), model, error)
+            if (allocated(error)) return
+            allocate (q(model%n), p(model%n), q_ref(model%n), p_ref(model%n))
+            call model%initial_state(q, p, status)
+            call reference_values(trim(names(k)), "q0", model%n, q_ref, error)
+            call reference_values(trim(names(k)), "p0", model%n, p_ref, error)
+            if (allocated(error)) return
+            start = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
+            call check(error, start <= 1.0e-33_wp .or. wp_is_double, trim(names(k)) // &
+                ": the start differs from the reference's by " // real_str(start))
+            if (allocated(error)) return
+            call integ%init(model, 8, 7, 9, status)
+            call integ%integrate(model, q, p, 10.0_wp / steps(k), steps(k), status=status)
+            call check(error, status%ok(), trim(names(k)) // ": " // status%message)
+            if (allocated(error)) return
+            call reference_values(trim(names(k)), "qT", model%n, q_ref, error)
+            call reference_values(trim(names(k)), "pT", model%n, p_ref, error)
+            if (allocated(error)) return
+            final = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
+            call check(error, final <= max(1.0e-30_wp, 1.0e4_wp * eps), trim(names(k)) // &
+                ": at T = 10 the state differs from the reference's by " // real_str(final))
+            if (allocated(error)) return
+            deallocate (q, p, q_ref, p_ref)
+        end do
+    end subroutine independent_references
 
     !> Every syntax or meaning error is refused with code HOLOSYM_INVALID_MODEL and a
     !! message that says where (line:column) and what was expected.

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Build the C example example/c/planar_pendulum.c against the installed library with gcc and
-# run it (it exits non-zero when one of its checks fails).
+# Build the C examples example/c/planar_pendulum.c (a system by callbacks) and
+# example/c/model.c (a system from a model file) against the installed library with gcc
+# and run them (each exits non-zero when one of its checks fails).
 #   tools/c_example.sh           the real128 library (__float128)
 #   tools/c_example.sh real64    the real64 library (double), -DHOLOSYM_REAL64 on both sides
 set -euo pipefail
@@ -15,8 +16,10 @@ case "$variant" in
 esac
 prefix="build/capi-$variant"
 "$FPM" install --profile release "${fortran_flags[@]}" --prefix "$prefix" > /dev/null
-"$CC" -std=gnu11 -Wall -Wextra -O2 "${c_flags[@]}" -Iinclude example/c/planar_pendulum.c \
-    -L"$prefix/lib" -lholosym -lgfortran "${libs[@]}" -llapack -lblas -fopenmp -lm \
-    -o "$prefix/planar_pendulum"
-echo "c_example: built $prefix/planar_pendulum with $CC ($variant); running it" >&2
-"$prefix/planar_pendulum"
+for example in planar_pendulum model; do
+    "$CC" -std=gnu11 -Wall -Wextra -O2 "${c_flags[@]}" -Iinclude "example/c/$example.c" \
+        -L"$prefix/lib" -lholosym -lgfortran "${libs[@]}" -llapack -lblas -fopenmp -lm \
+        -o "$prefix/$example"
+    echo "c_example: built $prefix/$example with $CC ($variant); running it" >&2
+    "$prefix/$example"
+done

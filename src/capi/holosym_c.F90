@@ -16,10 +16,14 @@
 !!
 !! A real128 build with a compiler other than gfortran has no C kind for the library's
 !! reals: the module then holds only `c_interface_available = .false.`.
+!!
+!! Outcomes are tested as `status%code == HOLOSYM_SUCCESS`, never with `status%ok()`: in
+!! this module gfortran 12 (release profile) compiles the type-bound `ok` into a call of
+!! the C function `holosym_status`, which shares its name with the module of the type.
 module holosym_c
 #if defined(HOLOSYM_REAL64) || defined(__GFORTRAN__)
     use, intrinsic :: iso_c_binding, only: c_int, c_char, c_ptr, c_funptr, c_null_ptr, &
-        c_null_char, c_associated, c_f_pointer, c_f_procpointer, c_loc, c_double
+        c_null_char, c_associated, c_f_pointer, c_f_procpointer, c_loc, c_double, c_size_t
 #ifndef HOLOSYM_REAL64
     use, intrinsic :: iso_c_binding, only: c_float128
 #endif
@@ -28,6 +32,7 @@ module holosym_c
     use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION
     use holosym_problem, only: constrained_hamiltonian
+    use holosym_formula_model, only: formula_model, model_from_text
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
     use holosym_projection, only: project_to_manifold
     implicit none
@@ -37,7 +42,13 @@ module holosym_c
     !> True: this build has the C interface.
     logical, parameter, public :: c_interface_available = .true.
     public :: holosym_create, holosym_destroy, holosym_status, holosym_message, holosym_step, &
-        holosym_integrate, holosym_dense_output, holosym_project
+        holosym_integrate, holosym_dense_output, holosym_project, holosym_sizes
+    public :: holosym_model_create, holosym_model_set_parameter, holosym_model_get_parameter, &
+        holosym_model_initial_state, holosym_model_parameter_count, holosym_model_name
+
+    !> What `holosym_model_name` names (HOLOSYM_NAME_* in the header).
+    integer(c_int), parameter, public :: name_parameter_c = 0, name_coordinate_c = 1, &
+        name_momentum_c = 2
 
 #ifdef HOLOSYM_REAL64
     !> The C type of reals: double.
@@ -61,6 +72,15 @@ module holosym_c
         type(c_funptr) :: constraint_jacobian    !! int (*)(int n, int m, q, jac, data)
         type(c_ptr) :: data                      !! passed to every callback
     end type holosym_system_c
+
+    interface
+        !> The C library's strlen.
+        function c_strlen(text) result(length) bind(C, name="strlen")
+            import :: c_ptr, c_size_t
+            type(c_ptr), value :: text
+            integer(c_size_t) :: length
+        end function c_strlen
+    end interface
 
     abstract interface
         integer(c_int) function c_hamiltonian(n, q, p, energy, data) bind(C)
@@ -127,14 +147,18 @@ module holosym_c
         procedure :: observe => c_observe
     end type c_step_observer
 
-    !> What a C handle points to.
+    !> What a C handle points to: the integrator and its system, C callbacks
+    !! (`holosym_create`) or a model (`holosym_model_create`).
     type :: c_handle
         type(constrained_integrator) :: integrator
-        type(c_callback_system) :: system
+        class(constrained_hamiltonian), allocatable :: system
         type(callback_record), pointer :: record => null()
         logical :: ready = .false.
         integer :: code = HOLOSYM_SUCCESS
         character(len=:), allocatable :: message
+        !> (M, N, G) of the creation, for the integrator's new set-up after a parameter of
+        !! a model changed.
+        integer(c_int) :: orders(3) = 0
     end type c_handle
 
 contains
@@ -318,6 +342,7 @@ contains
         type(c_ptr) :: ptr
         type(holosym_system_c), pointer :: system
         type(c_handle), pointer :: handle
+        type(c_callback_system) :: callbacks
         type(holosym_status_t) :: status
         integer(c_int) :: ignored
         integer :: n, m
@@ -342,20 +367,32 @@ contains
             ignored = refuse(handle, HOLOSYM_INVALID_DIMENSION, dimension_message(n, m))
             return
         end if
-        handle%system%n = system%n
-        handle%system%m = system%m
-        call c_f_procpointer(system%hamiltonian, handle%system%h_fn)
-        call c_f_procpointer(system%dh_dq, handle%system%hq_fn)
-        call c_f_procpointer(system%dh_dp, handle%system%hp_fn)
-        call c_f_procpointer(system%constraint, handle%system%phi_fn)
-        call c_f_procpointer(system%constraint_jacobian, handle%system%jac_fn)
-        handle%system%data = system%data
-        handle%system%record => handle%record
+        callbacks%n = system%n
+        callbacks%m = system%m
+        call c_f_procpointer(system%hamiltonian, callbacks%h_fn)
+        call c_f_procpointer(system%dh_dq, callbacks%hq_fn)
+        call c_f_procpointer(system%dh_dp, callbacks%hp_fn)
+        call c_f_procpointer(system%constraint, callbacks%phi_fn)
+        call c_f_procpointer(system%constraint_jacobian, callbacks%jac_fn)
+        callbacks%data = system%data
+        callbacks%record => handle%record
+        allocate (handle%system, source=callbacks)
+        call init_integrator(handle, order_m, order_n, gauss_points)
+    end function holosym_create
+
+    !> Set up the handle's integrator for its system and (M, N, G); the outcome is the
+    !! handle's status.
+    subroutine init_integrator(handle, order_m, order_n, gauss_points)
+        type(c_handle), intent(inout) :: handle
+        integer(c_int), intent(in) :: order_m, order_n, gauss_points
+        type(holosym_status_t) :: status
+        integer(c_int) :: ignored
+        handle%orders = [order_m, order_n, gauss_points]
         call handle%integrator%init(handle%system, int(order_m), int(order_n), &
                                     int(gauss_points), status)
         handle%ready = status%code == HOLOSYM_SUCCESS
         ignored = finish(handle, status)
-    end function holosym_create
+    end subroutine init_integrator
 
     !> void holosym_destroy(holosym_integrator *integrator): free the handle (NULL is
     !! ignored).
@@ -546,6 +583,262 @@ contains
         end if
         holosym_project = finish(handle, status)
     end function holosym_project
+
+    ! ---------------------------------------------------------------- models
+
+    !> The NUL-terminated C string at `ptr`.
+    function c_string(ptr) result(text)
+        type(c_ptr), intent(in) :: ptr
+        character(len=:), allocatable :: text
+        character(kind=c_char), pointer :: chars(:)
+        integer :: length, i
+        length = int(c_strlen(ptr))
+        call c_f_pointer(ptr, chars, [length])
+        allocate (character(len=length) :: text)
+        do i = 1, length
+            text(i:i) = chars(i)
+        end do
+    end function c_string
+
+    !> The handle's model, or null (with the handle's status set) when the handle holds
+    !! none: `caller` names the function in the message.
+    function model_of(ptr, caller, code) result(model)
+        type(c_ptr), intent(in) :: ptr
+        character(len=*), intent(in) :: caller
+        integer(c_int), intent(out) :: code
+        type(formula_model), pointer :: model
+        type(c_handle), pointer :: handle
+        model => null()
+        code = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        handle => handle_of(ptr)
+        if (.not. associated(handle)) return
+        if (.not. allocated(handle%system)) then
+            code = refuse(handle, HOLOSYM_NOT_INITIALIZED, caller // ": the model was " // &
+                "not created successfully")
+            return
+        end if
+        select type (sys => handle%system)
+        type is (formula_model)
+            model => sys
+            code = int(HOLOSYM_SUCCESS, c_int)
+        class default
+            code = refuse(handle, HOLOSYM_INVALID_ARGUMENT, caller // ": the integrator " // &
+                "was made by holosym_create, not from a model")
+        end select
+    end function model_of
+
+    !> holosym_integrator *holosym_model_create(const char *model, int M, int N, int G):
+    !! a handle for the system a model text states (the grammar of model files, lines
+    !! separated by '\n') and the scheme (M, N, G). NULL only for a NULL text; otherwise
+    !! check `holosym_status`: HOLOSYM_INVALID_MODEL with "model:LINE:COLUMN: ..." for a
+    !! text refused, and the codes of `holosym_create`.
+    function holosym_model_create(text_ptr, order_m, order_n, gauss_points) result(ptr) &
+        bind(C, name="holosym_model_create")
+        type(c_ptr), value :: text_ptr         !! const char *: the model, NUL-terminated
+        integer(c_int), value :: order_m       !! M >= 1
+        integer(c_int), value :: order_n       !! N >= 0
+        integer(c_int), value :: gauss_points  !! G >= N + 1
+        type(c_ptr) :: ptr
+        type(c_handle), pointer :: handle
+        type(formula_model) :: model
+        type(holosym_status_t) :: status
+        integer(c_int) :: ignored
+        ptr = c_null_ptr
+        if (.not. c_associated(text_ptr)) return
+        allocate (handle)
+        allocate (handle%record)
+        handle%message = ""
+        ptr = c_loc(handle)
+        call model_from_text(c_string(text_ptr), model, status)
+        if (status%code /= HOLOSYM_SUCCESS) then
+            ignored = finish(handle, status)
+            return
+        end if
+        allocate (handle%system, source=model)
+        call init_integrator(handle, order_m, order_n, gauss_points)
+    end function holosym_model_create
+
+    !> int holosym_sizes(const holosym_integrator *integrator, int *n, int *m): the
+    !! system's numbers of coordinates and constraints (either pointer may be NULL).
+    integer(c_int) function holosym_sizes(ptr, n_ptr, m_ptr) bind(C, name="holosym_sizes")
+        type(c_ptr), value :: ptr    !! the handle
+        type(c_ptr), value :: n_ptr  !! int *: n, or NULL
+        type(c_ptr), value :: m_ptr  !! int *: m, or NULL
+        type(c_handle), pointer :: handle
+        integer(c_int), pointer :: value
+        handle => handle_of(ptr)
+        holosym_sizes = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        if (.not. associated(handle)) return
+        if (.not. allocated(handle%system)) then
+            holosym_sizes = refuse(handle, HOLOSYM_NOT_INITIALIZED, "holosym_sizes: the " // &
+                "integrator was not created successfully")
+            return
+        end if
+        if (c_associated(n_ptr)) then
+            call c_f_pointer(n_ptr, value)
+            value = int(handle%system%n, c_int)
+        end if
+        if (c_associated(m_ptr)) then
+            call c_f_pointer(m_ptr, value)
+            value = int(handle%system%m, c_int)
+        end if
+        holosym_sizes = refuse(handle, HOLOSYM_SUCCESS, "")
+    end function holosym_sizes
+
+    !> int holosym_model_set_parameter(holosym_integrator *integrator, const char *name,
+    !! holosym_real value): set a parameter of the model by name; the integrator is set up
+    !! again (the masses may change). Codes: HOLOSYM_INVALID_ARGUMENT (no such parameter,
+    !! value not finite, a parameter defined from it cannot be computed, NULL name, or a
+    !! handle not made from a model: the model is then unchanged), and those of the
+    !! integrator's set-up.
+    integer(c_int) function holosym_model_set_parameter(ptr, name_ptr, value) &
+        bind(C, name="holosym_model_set_parameter")
+        type(c_ptr), value :: ptr        !! the handle
+        type(c_ptr), value :: name_ptr   !! const char *: the parameter's name
+        real(c_real), value :: value     !! its new value
+        type(formula_model), pointer :: model
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        model => model_of(ptr, "holosym_model_set_parameter", holosym_model_set_parameter)
+        if (.not. associated(model)) return
+        handle => handle_of(ptr)
+        if (.not. c_associated(name_ptr)) then
+            holosym_model_set_parameter = refuse(handle, HOLOSYM_INVALID_ARGUMENT, &
+                "holosym_model_set_parameter: the name is NULL")
+            return
+        end if
+        call model%set_parameter(c_string(name_ptr), real(value, wp), status)
+        if (status%code /= HOLOSYM_SUCCESS) then
+            holosym_model_set_parameter = finish(handle, status)
+            return
+        end if
+        call init_integrator(handle, handle%orders(1), handle%orders(2), handle%orders(3))
+        holosym_model_set_parameter = int(handle%code, c_int)
+    end function holosym_model_set_parameter
+
+    !> int holosym_model_get_parameter(holosym_integrator *integrator, const char *name,
+    !! holosym_real *value): the value of a parameter of the model. Codes:
+    !! HOLOSYM_INVALID_ARGUMENT (no such parameter, NULL name or value, not a model).
+    integer(c_int) function holosym_model_get_parameter(ptr, name_ptr, value) &
+        bind(C, name="holosym_model_get_parameter")
+        type(c_ptr), value :: ptr        !! the handle
+        type(c_ptr), value :: name_ptr   !! const char *: the parameter's name
+        type(c_ptr), value :: value      !! holosym_real *: its value
+        type(formula_model), pointer :: model
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        real(c_real), pointer :: out
+        real(wp) :: x
+        model => model_of(ptr, "holosym_model_get_parameter", holosym_model_get_parameter)
+        if (.not. associated(model)) return
+        handle => handle_of(ptr)
+        if (.not. (c_associated(name_ptr) .and. c_associated(value))) then
+            holosym_model_get_parameter = refuse(handle, HOLOSYM_INVALID_ARGUMENT, &
+                "holosym_model_get_parameter: the name and the value must not be NULL")
+            return
+        end if
+        call model%get_parameter(c_string(name_ptr), x, status)
+        if (status%code == HOLOSYM_SUCCESS) then
+            call c_f_pointer(value, out)
+            out = x
+        end if
+        holosym_model_get_parameter = finish(handle, status)
+    end function holosym_model_get_parameter
+
+    !> int holosym_model_initial_state(holosym_integrator *integrator, holosym_real *q,
+    !! holosym_real *p): the initial state the model states, with its current parameters,
+    !! velocities turned into momenta and projected onto the constraint manifold when off
+    !! it (the message then says so). Codes: HOLOSYM_INVALID_ARGUMENT (the model states no
+    !! initial state, or not a model), those of the projection; q, p unchanged on failure.
+    integer(c_int) function holosym_model_initial_state(ptr, q, p) &
+        bind(C, name="holosym_model_initial_state")
+        type(c_ptr), value :: ptr            !! the handle
+        real(c_real), intent(inout) :: q(*)  !! coordinates (n)
+        real(c_real), intent(inout) :: p(*)  !! momenta (n)
+        type(formula_model), pointer :: model
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        character(len=:), allocatable :: note
+        real(wp), allocatable :: qw(:), pw(:)
+        model => model_of(ptr, "holosym_model_initial_state", holosym_model_initial_state)
+        if (.not. associated(model)) return
+        handle => handle_of(ptr)
+        allocate (qw(model%n), pw(model%n))
+        call model%initial_state(qw, pw, status, note)
+        if (status%code == HOLOSYM_SUCCESS) then
+            q(1:model%n) = qw
+            p(1:model%n) = pw
+            status%message = note
+        end if
+        holosym_model_initial_state = finish(handle, status)
+    end function holosym_model_initial_state
+
+    !> int holosym_model_parameter_count(const holosym_integrator *integrator): the
+    !! number of the model's parameters (or a negative status code: not a model).
+    integer(c_int) function holosym_model_parameter_count(ptr) &
+        bind(C, name="holosym_model_parameter_count")
+        type(c_ptr), value :: ptr !! the handle
+        type(formula_model), pointer :: model
+        integer(c_int) :: code
+        model => model_of(ptr, "holosym_model_parameter_count", code)
+        holosym_model_parameter_count = code
+        if (associated(model)) holosym_model_parameter_count = int(model%parameter_count(), &
+                                                                   c_int)
+    end function holosym_model_parameter_count
+
+    !> int holosym_model_name(const holosym_integrator *integrator, int what, int index,
+    !! char *buffer, int size): the name of parameter, coordinate or momentum `index`
+    !! (from 1; `what` is HOLOSYM_NAME_PARAMETER, HOLOSYM_NAME_COORDINATE or
+    !! HOLOSYM_NAME_MOMENTUM) into buffer as holosym_message does; returns its length, or a
+    !! negative status code (HOLOSYM_INVALID_ARGUMENT: `what` or `index` out of range).
+    integer(c_int) function holosym_model_name(ptr, what, index, buffer, size) &
+        bind(C, name="holosym_model_name")
+        type(c_ptr), value :: ptr                        !! the handle
+        integer(c_int), value :: what                    !! HOLOSYM_NAME_*
+        integer(c_int), value :: index                   !! from 1
+        character(kind=c_char), intent(out) :: buffer(*) !! the name
+        integer(c_int), value :: size                    !! room in buffer, with the NUL
+        type(formula_model), pointer :: model
+        type(c_handle), pointer :: handle
+        character(len=:), allocatable :: text
+        integer :: i, count, last
+        model => model_of(ptr, "holosym_model_name", holosym_model_name)
+        if (.not. associated(model)) return
+        handle => handle_of(ptr)
+        select case (what)
+        case (name_parameter_c)
+            last = model%parameter_count()
+        case (name_coordinate_c, name_momentum_c)
+            last = model%n
+        case default
+            holosym_model_name = refuse(handle, HOLOSYM_INVALID_ARGUMENT, &
+                "holosym_model_name: what must be HOLOSYM_NAME_PARAMETER, " // &
+                "HOLOSYM_NAME_COORDINATE or HOLOSYM_NAME_MOMENTUM")
+            return
+        end select
+        if (index < 1 .or. index > last) then
+            holosym_model_name = refuse(handle, HOLOSYM_INVALID_ARGUMENT, &
+                "holosym_model_name: index " // decimal(int(index)) // " is not in 1.." // &
+                decimal(last))
+            return
+        end if
+        select case (what)
+        case (name_parameter_c)
+            text = model%parameter_name(int(index))
+        case (name_coordinate_c)
+            text = model%coordinate_name(int(index))
+        case default
+            text = model%momentum_name(int(index))
+        end select
+        holosym_model_name = refuse(handle, HOLOSYM_SUCCESS, "")
+        holosym_model_name = int(len(text), c_int)
+        if (size < 1) return
+        count = min(len(text), int(size) - 1)
+        do i = 1, count
+            buffer(i) = text(i:i)
+        end do
+        buffer(count + 1) = c_null_char
+    end function holosym_model_name
 
 #else
     implicit none

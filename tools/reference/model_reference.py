@@ -20,6 +20,8 @@ numbers; the file holds those starts and the states at T = 10 with 45 digits.
 
 Usage: python3 tools/reference/model_reference.py [OUTPUT]
        (default test/data/model_reference.csv; `make reference` runs it in build/venv).
+tools/reference/formula_reference.py imports the integrator (solve, reference) and the
+CSV writer (write_reference) from here.
 """
 import sys
 import time
@@ -340,11 +342,15 @@ def midpoint(model, q, p, step, substeps):
     return [(z[i] + z_prev[i] + h * dy[i]) / 2 for i in range(2 * n)]
 
 
-def gbs_step(model, q, p, step):
-    """One extrapolated macro step: Aitken-Neville in h^2 on n_j = 2 j substeps."""
+def gbs_step(model, q, p, step, tolerance=None, max_levels=None):
+    """One extrapolated macro step: Aitken-Neville in h^2 on n_j = 2 j substeps, until two
+    successive diagonal entries agree to tolerance (default TOLERANCE) within max_levels
+    (default MAX_LEVELS) levels."""
+    tolerance = TOLERANCE if tolerance is None else tolerance
+    max_levels = MAX_LEVELS if max_levels is None else max_levels
     table = []
     counts = []
-    for level in range(1, MAX_LEVELS + 1):
+    for level in range(1, max_levels + 1):
         counts.append(2 * level)
         row = [midpoint(model, q, p, step, counts[-1])]
         for k in range(1, level):
@@ -353,25 +359,69 @@ def gbs_step(model, q, p, step):
                         for i in range(len(row[0]))])
         if level > 1:
             change = max(abs(row[-1][i] - table[-1][-1][i]) for i in range(len(row[0])))
-            if change < TOLERANCE:
+            if change < tolerance:
                 y = row[-1]
                 return y[:model.n], y[model.n:], level
         table.append(row)
-    raise RuntimeError(f"{model.name}: extrapolation did not settle in {MAX_LEVELS} levels")
+    raise RuntimeError(f"{model.name}: extrapolation did not settle in {max_levels} levels")
 
 
-def solve(model, q0, p0, steps):
+def solve(model, q0, p0, steps, span=None, tolerance=None, max_levels=None):
+    """(q, p) at T = span (default SPAN) after `steps` equal macro steps, and the most
+    levels a macro step used."""
+    span = SPAN if span is None else span
     q, p = list(q0), list(p0)
-    step = mpf(SPAN) / steps
+    step = mpf(span) / steps
     levels = 0
     for _ in range(steps):
-        q, p, used = gbs_step(model, q, p, step)
+        q, p, used = gbs_step(model, q, p, step, tolerance, max_levels)
         levels = max(levels, used)
     return q, p, levels
 
 
 def fmt(x):
     return mpmath.nstr(x, 45, min_fixed=1, max_fixed=0, strip_zeros=False)
+
+
+def reference(model, q0, p0, macro_steps=None, span=None, tolerance=None, max_levels=None):
+    """The reference of one model from (q0, p0) (used as given): solved to T = span with
+    each count of macro_steps (default MACRO_STEPS, SPAN); returns the comment line (the
+    runs' difference, |H(T) - H(0)|, max|phi(q(T))|, levels, seconds) and the CSV rows
+    (q0, p0, qT, pT of the first run, H0), and the first run's (q, p) at T; prints the
+    comment line to stderr."""
+    macro_steps = MACRO_STEPS if macro_steps is None else macro_steps
+    span = SPAN if span is None else span
+    started = time.time()
+    results = [solve(model, q0, p0, steps, span, tolerance, max_levels)
+               for steps in macro_steps]
+    (q, p, levels), (q2, p2, _) = results
+    change = max(abs(a - b) for a, b in zip(q + p, q2 + p2))
+    energy0 = model.hamiltonian(q0, p0)
+    drift = abs(model.hamiltonian(q, p) - energy0)
+    phi_end = max(abs(c) for c in model.phi(q))
+    note = (f"# {model.name}: macro steps 1/{macro_steps[0] // span} and "
+            f"1/{macro_steps[1] // span} differ by {mpmath.nstr(change, 3)}; "
+            f"|H(T) - H(0)| = {mpmath.nstr(drift, 3)}; max|phi(q(T))| = "
+            f"{mpmath.nstr(phi_end, 3)}; {levels} levels; "
+            f"{time.time() - started:.0f} s")
+    print(note, file=sys.stderr)
+    rows = []
+    for label, values in (("q0", q0), ("p0", p0), ("qT", q), ("pT", p)):
+        for i, value in enumerate(values, start=1):
+            rows.append(f"{model.name},{label},{i},{fmt(value)}")
+    rows.append(f"{model.name},H0,1,{fmt(energy0)}")
+    return note, rows, (q, p)
+
+
+def write_reference(output, header, notes, rows):
+    """The CSV file: the header's lines and the notes as '#' comments, then the rows."""
+    with open(output, "w") as handle:
+        for line in header:
+            handle.write("# " + line + "\n")
+        for note in notes:
+            handle.write(note + "\n")
+        handle.write("system,quantity,index,value\n")
+        handle.write("\n".join(rows) + "\n")
 
 
 def main():
@@ -384,33 +434,15 @@ def main():
     lines = []
     notes = []
     for model in models:
-        started = time.time()
         q0, p0 = model.start()
         q0 = [to_binary128(c) for c in q0]
         p0 = [to_binary128(c) for c in p0]
-        results = [solve(model, q0, p0, steps) for steps in MACRO_STEPS]
-        (q, p, levels), (q2, p2, _) = results
-        change = max(abs(a - b) for a, b in zip(q + p, q2 + p2))
-        energy0 = model.hamiltonian(q0, p0)
-        drift = abs(model.hamiltonian(q, p) - energy0)
-        phi_end = max(abs(c) for c in model.phi(q))
-        notes.append(f"# {model.name}: macro steps 1/{MACRO_STEPS[0] // SPAN} and "
-                     f"1/{MACRO_STEPS[1] // SPAN} differ by {mpmath.nstr(change, 3)}; "
-                     f"|H(T) - H(0)| = {mpmath.nstr(drift, 3)}; max|phi(q(T))| = "
-                     f"{mpmath.nstr(phi_end, 3)}; {levels} levels; "
-                     f"{time.time() - started:.0f} s")
-        print(notes[-1], file=sys.stderr)
-        for label, values in (("q0", q0), ("p0", p0), ("qT", q), ("pT", p)):
-            for i, value in enumerate(values, start=1):
-                lines.append(f"{model.name},{label},{i},{fmt(value)}")
-        lines.append(f"{model.name},H0,1,{fmt(energy0)}")
-    with open(output, "w") as handle:
-        handle.write("# Reference states of holosym's models at T = 10 from their index-1 form,\n")
-        handle.write("# 50-digit Gragg-Bulirsch-Stoer (tools/reference/model_reference.py).\n")
-        for note in notes:
-            handle.write(note + "\n")
-        handle.write("system,quantity,index,value\n")
-        handle.write("\n".join(lines) + "\n")
+        note, rows, _ = reference(model, q0, p0)
+        notes.append(note)
+        lines += rows
+    header = ["Reference states of holosym's models at T = 10 from their index-1 form,",
+              "50-digit Gragg-Bulirsch-Stoer (tools/reference/model_reference.py)."]
+    write_reference(output, header, notes, lines)
 
 
 if __name__ == "__main__":

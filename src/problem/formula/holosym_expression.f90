@@ -11,6 +11,9 @@
 !! node's children always have smaller indices than the node, so index order is a
 !! topological order; `varying` says whether a node depends on a variable.
 !!
+!! Node arguments of the constructors are passed by value: an operand is often read from
+!! the graph's own arrays (`self%left(b)`), which a new node may reallocate.
+!!
 !! `evaluate_safely` evaluates nodes with every operation checked beforehand (domain,
 !! division by zero, overflow), so that no floating-point exception is raised: it serves
 !! constant folding and the diagnosis of a model at its initial state, and says which node
@@ -181,7 +184,7 @@ contains
     recursive integer function graph_unary(self, op, a) result(node)
         class(expression_graph_t), intent(inout) :: self
         integer, intent(in) :: op !! op_negate or a function (op_sqrt .. op_acos)
-        integer, intent(in) :: a  !! the operand
+        integer, value :: a       !! the operand (a copy: the graph may grow meanwhile)
         real(wp) :: folded
         integer :: failure
         if (self%op(a) == op_constant) then
@@ -209,7 +212,7 @@ contains
         class(expression_graph_t), intent(inout) :: self
         integer, intent(in) :: op !! op_add, op_subtract, op_multiply, op_divide, op_power
                                   !! or op_atan2
-        integer, intent(in) :: a, b !! the operands
+        integer, value :: a, b  !! the operands (copies: the graph may grow meanwhile)
         real(wp) :: x, y, folded
         integer :: failure
         logical :: ca, cb
@@ -241,7 +244,7 @@ contains
     !> a + b: 0 dropped, x + x = 2 x, x + (-y) = x - y, operands ordered.
     recursive integer function simplified_sum(self, a, b, a_zero, b_zero) result(node)
         class(expression_graph_t), intent(inout) :: self
-        integer, intent(in) :: a, b
+        integer, value :: a, b
         logical, intent(in) :: a_zero, b_zero
         if (a_zero) then
             node = b
@@ -261,7 +264,7 @@ contains
     !> a - b: 0 dropped, x - x = 0, x - (-y) = x + y.
     recursive integer function simplified_difference(self, a, b, a_zero, b_zero) result(node)
         class(expression_graph_t), intent(inout) :: self
-        integer, intent(in) :: a, b
+        integer, value :: a, b
         logical, intent(in) :: a_zero, b_zero
         if (b_zero) then
             node = a
@@ -280,7 +283,7 @@ contains
     !! collected, operands ordered.
     recursive integer function simplified_product(self, a, b, ca, cb, x, y) result(node)
         class(expression_graph_t), intent(inout) :: self
-        integer, intent(in) :: a, b
+        integer, value :: a, b
         logical, intent(in) :: ca, cb
         real(wp), intent(in) :: x, y
         real(wp) :: inner, folded
@@ -324,7 +327,7 @@ contains
     !> a / b: x / 1 = x, 0 / y = 0, x / x = 1, x / -1 = -x, negations moved outside.
     recursive integer function simplified_quotient(self, a, b, ca, cb, x, y) result(node)
         class(expression_graph_t), intent(inout) :: self
-        integer, intent(in) :: a, b
+        integer, value :: a, b
         logical, intent(in) :: ca, cb
         real(wp), intent(in) :: x, y
         if (cb .and. y == 1) then
@@ -347,7 +350,7 @@ contains
     !> a^b: an integer constant exponent becomes an integer power, 1/2 a square root.
     recursive integer function simplified_power(self, a, b, cb, y) result(node)
         class(expression_graph_t), intent(inout) :: self
-        integer, intent(in) :: a, b
+        integer, value :: a, b
         logical, intent(in) :: cb
         real(wp), intent(in) :: y
         if (cb) then
@@ -369,7 +372,7 @@ contains
     !! x^(j k), (-x)^k = +-x^k; |k| beyond `max_integer_power` stays the general power.
     recursive integer function graph_power_int(self, a, k) result(node)
         class(expression_graph_t), intent(inout) :: self
-        integer, intent(in) :: a !! the base
+        integer, value :: a      !! the base (a copy: the graph may grow meanwhile)
         integer, intent(in) :: k !! the exponent
         real(wp) :: folded
         integer :: failure
@@ -400,8 +403,8 @@ contains
     !> The node (op, l, r, v), made if new.
     integer function intern(self, op, l, r, v) result(node)
         class(expression_graph_t), intent(inout) :: self
-        integer, intent(in) :: op, l, r
-        real(wp), intent(in) :: v
+        integer, value :: op, l, r ! copies: `grow` reallocates the arrays they may come from
+        real(wp), value :: v
         integer :: slot
         if (4 * (self%count + 1) > size(self%table)) call grow(self)
         slot = find_slot(self, op, l, r, v)
