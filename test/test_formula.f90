@@ -3,9 +3,10 @@
 !! differences), the compiled forms in both precisions, parameters by name, initial
 !! states, and the model twins of the built-in systems integrated side by side with them.
 module test_formula
+    use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp, wp_is_double
-    use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
-        HOLOSYM_INVALID_MODEL, HOLOSYM_INVALID_ARGUMENT
+    use holosym_status, only: holosym_status_t, real_str, int_str, is_finite, &
+        HOLOSYM_SUCCESS, HOLOSYM_INVALID_MODEL, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t
     use holosym_formula_model, only: formula_model, load_model, model_from_text
@@ -15,8 +16,10 @@ module test_formula
     use holosym_model_magnetic, only: magnetic_sphere
     use holosym_model_generic, only: generic_pendulum
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
-        split_field
-    use holosym_test_commands, only: command_result_t, run_shell, scratch_path
+        split_field, overflow_traps
+    use holosym_test_commands, only: command_result_t, run_shell, scratch_path, text_line_t, &
+        read_lines
+    use holosym_manifold, only: manifold_residuals
     implicit none
     private
     public :: formula_tests
@@ -50,7 +53,8 @@ contains
             new_test("initial_states_projected_or_refused", initial_states), &
             new_test("every_error_has_a_position", error_messages), &
             new_test("large_chain_as_the_builtin", large_chain), &
-            new_test("water_and_fourbar_match_40_digit_references", independent_references)]
+            new_test("water_and_fourbar_match_40_digit_references", independent_references), &
+            new_test("fuzz_mutated_models_load_or_are_refused", fuzz_models)]
     end function formula_tests
 
     !> The built-in system a twin stands for, with its initial state.
@@ -809,6 +813,164 @@ contains
             deallocate (q, p, q_ref, p_ref)
         end do
     end subroutine independent_references
+
+    !> A few thousand model files mutated from the examples (fixed seed: characters
+    !! deleted, inserted, replaced by operators, digits, control bytes or other bytes; lines
+    !! dropped, repeated, swapped or cut; numbers made huge, tiny or zero): each is loaded
+    !! or refused with HOLOSYM_INVALID_MODEL and a message that starts with the source
+    !! name, never a crash. A loaded model with an initial state must give it on its
+    !! manifold with H finite, and take a step or fail with a status. In the build that
+    !! traps floating-point exceptions, the mutants lose their initial state (the
+    !! projection evaluates the user's formulas at points nobody checked: there NaN is the
+    !! user's, and traps). Bounded: at most 60 s.
+    subroutine fuzz_models(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        integer, parameter :: mutants = 3000
+        character(len=*), parameter :: alphabet = "+-*/^(),=#\ .eE0123456789xyzpqabl_" // &
+            "sincoaqrtlgeh"
+        character(len=16), parameter :: numbers(*) = [character(len=16) :: "0", "1e4000", &
+            "1e-4000", "-1", "1e400", "0.0", "1e-30", "2e3000", "99999999999999999999"]
+        type(text_line_t), allocatable :: seeds(:)
+        type(formula_model) :: model
+        type(constrained_integrator) :: integ
+        type(step_info_t) :: info
+        type(holosym_status_t) :: status
+        character(len=:), allocatable :: source
+        real(wp), allocatable :: q(:), p(:)
+        integer(int64) :: state, start, now, rate
+        integer :: k, loaded_count, refused, stepped
+        logical :: trapping
+        trapping = overflow_traps()
+        call seed_texts(seeds)
+        state = 20261202_int64
+        loaded_count = 0
+        refused = 0
+        stepped = 0
+        call system_clock(start, rate)
+        do k = 1, mutants
+            source = mutate(seeds(1 + modulo(k, size(seeds)))%text)
+            if (trapping) source = without_initial(source)
+            call model_from_text(source, model, status, name="fuzz")
+            if (status%ok()) then
+                loaded_count = loaded_count + 1
+                call loaded_model_works()
+            else
+                refused = refused + 1
+                call check(error, status%code == HOLOSYM_INVALID_MODEL .and. &
+                    index(status%message, "fuzz:") == 1, "mutant " // int_str(k) // &
+                    ": code " // int_str(status%code) // ", message '" // status%message // &
+                    "' for" // new_line("a") // source)
+            end if
+            if (allocated(error)) return
+            call system_clock(now)
+            if (real(now - start) / rate > 60) exit
+        end do
+        ! The mutants must reach both outcomes, or the test says little.
+        call check(error, loaded_count > 100 .and. refused > 100, "loaded " // &
+            int_str(loaded_count) // ", refused " // int_str(refused))
+    contains
+        subroutine loaded_model_works()
+            character(len=:), allocatable :: note
+            real(wp) :: position, velocity
+            if (.not. model%has_initial_state()) return
+            allocate (q(model%n), p(model%n))
+            call model%initial_state(q, p, status, note)
+            call check(error, status%ok(), "a loaded mutant's initial state fails: " // &
+                status%message // new_line("a") // source)
+            if (.not. allocated(error)) then
+                call manifold_residuals(model, q, p, position, velocity)
+                call check(error, is_finite(model%hamiltonian(q, p)) .and. &
+                    position <= 1.0e-6_wp * (1 + maxval(abs(q))), &
+                    "a loaded mutant's start is not usable" // new_line("a") // source)
+            end if
+            if (.not. allocated(error) .and. stepped < 200) then
+                call integ%init(model, 2, 1, 3, status)
+                if (status%ok()) call integ%step(model, q, p, 0.01_wp, info, status)
+                stepped = stepped + 1
+            end if
+            deallocate (q, p)
+        end subroutine loaded_model_works
+        !> A pseudo-random integer in 0..range-1 (a 64-bit LCG's high bits, no overflow).
+        integer function random(range)
+            integer, intent(in) :: range
+            state = modulo(state * 48271_int64, 2147483647_int64)
+            random = int(modulo(state, int(range, int64)))
+        end function random
+        function mutate(text) result(out)
+            character(len=*), intent(in) :: text
+            character(len=:), allocatable :: out
+            integer :: edits, e, at, kind, length, c
+            out = text
+            edits = 1 + random(4)
+            do e = 1, edits
+                length = len(out)
+                at = 1 + random(max(1, length))
+                kind = random(10)
+                select case (kind)
+                case (0)
+                    if (length > 0) out = out(:at - 1) // out(at + 1:)
+                case (1, 2)
+                    c = 1 + random(len(alphabet))
+                    out = out(:at - 1) // alphabet(c:c) // out(at:)
+                case (3)
+                    out = out(:at - 1) // achar(random(256)) // out(at:)
+                case (4)
+                    out = out(:at - 1) // trim(numbers(1 + random(size(numbers)))) // out(at:)
+                case (5)
+                    out = out(:at - 1) // new_line("a") // out(at:)
+                case (6)
+                    out = out(:at - 1)
+                case (7)
+                    out = out // out(at:)
+                case (8)
+                    c = 1 + random(len(alphabet))
+                    if (length > 0) out(at:at) = alphabet(c:c)
+                case default
+                    out = out(:at - 1) // " \" // new_line("a") // out(at:)
+                end select
+            end do
+        end function mutate
+    end subroutine fuzz_models
+
+    !> The text without its initial and velocity statements.
+    function without_initial(text) result(out)
+        character(len=*), intent(in) :: text
+        character(len=:), allocatable :: out
+        integer :: first, last
+        out = ""
+        first = 1
+        do while (first <= len(text))
+            last = index(text(first:), new_line("a"))
+            if (last == 0) then
+                last = len(text)
+            else
+                last = first + last - 1
+            end if
+            if (index(text(first:last), "initial") == 0 .and. &
+                index(text(first:last), "velocit") == 0) out = out // text(first:last)
+            first = last + 1
+        end do
+    end function without_initial
+
+    !> The example model files (and two small models) as the fuzz test's seeds.
+    subroutine seed_texts(seeds)
+        type(text_line_t), allocatable, intent(out) :: seeds(:)
+        integer :: t, ios
+        type(text_line_t), allocatable :: lines(:)
+        allocate (seeds(size(examples) + 2))
+        do t = 1, size(examples)
+            call read_lines(model_dir // trim(examples(t)) // ".hsm", lines, ios)
+            seeds(t)%text = ""
+            do ios = 1, size(lines)
+                seeds(t)%text = seeds(t)%text // lines(ios)%text // new_line("a")
+            end do
+        end do
+        seeds(size(examples) + 1)%text = text([character(len=60) :: "coordinates x y", &
+            "momenta px py", "hamiltonian (px^2 + py^2)/2 + y", "constraint x^2 + y^2 - 1", &
+            "initial x = 1, y = 0"])
+        seeds(size(examples) + 2)%text = text([character(len=60) :: "parameters a = 2", &
+            "coordinates x", "momenta p", "let u = a*x^2", "hamiltonian p^2/2 + u"])
+    end subroutine seed_texts
 
     !> Every syntax or meaning error is refused with code HOLOSYM_INVALID_MODEL and a
     !! message that says where (line:column) and what was expected.

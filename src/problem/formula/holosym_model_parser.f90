@@ -184,7 +184,7 @@ contains
         integer :: k, count, last, bad
         character(len=:), allocatable :: text
         logical :: continues
-        allocate (kept(16))
+        allocate (kept(16), parser%statements(0))
         count = 0
         open_statement%text = ""
         allocate (open_statement%line(0), open_statement%column(0))
@@ -916,7 +916,7 @@ contains
                 "(line " // int_str(later) // "): define names before using them")
         else
             call fail_token(parser, "unknown name '" // name // "'" // &
-                suggestion(name, known_names(parser)))
+                suggestion(name, [character(len=64) :: known_names(parser), functions, "pi"]))
         end if
     end subroutine fail_unknown
 
@@ -1224,6 +1224,9 @@ contains
             if (iachar(c) > 127) then
                 call fail_token(parser, "unexpected byte " // int_str(iachar(c)) // &
                     " (names are ASCII letters, digits and '_')")
+            else if (c == "\") then
+                call fail_token(parser, "unexpected '\': it continues a statement only " // &
+                    "at the end of a line")
             else
                 call fail_token(parser, "unexpected character '" // c // "'")
             end if
