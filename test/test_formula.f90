@@ -985,7 +985,13 @@ contains
         integer :: k
         k = 0
         deep = repeat("(", 300) // "x" // repeat(")", 300)
-        long = "# " // repeat("a", 10000000)
+        ! 10 MB on the heap (a temporary of that size can overflow a compiler's stack).
+        allocate (character(len=10000002) :: long)
+        long(1:2) = "# "
+        do k = 3, len(long)
+            long(k:k) = "a"
+        end do
+        k = 0
         call expect(xy // "hamiltonian px^2 + z", "model:3:20: unknown name 'z'")
         call expect(xy // "hamiltonian px^2 + xx", "unknown name 'xx' (did you mean 'x'?)")
         call expect("coordinates x y x", "model:1:17: 'x' is declared twice (first as a " // &

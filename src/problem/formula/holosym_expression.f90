@@ -596,33 +596,35 @@ contains
         out = values
         n = size(out)
         do k = n / 2, 1, -1
-            call sift(k, n)
+            call sift(out, k, n)
         end do
         do k = n, 2, -1
             t = out(1)
             out(1) = out(k)
             out(k) = t
-            call sift(1, k - 1)
+            call sift(out, 1, k - 1)
         end do
-    contains
-        pure subroutine sift(start, last)
-            integer, intent(in) :: start, last
-            integer :: root, child, swap
-            root = start
-            do
-                child = 2 * root
-                if (child > last) exit
-                if (child < last) then
-                    if (out(child + 1) > out(child)) child = child + 1
-                end if
-                if (out(root) >= out(child)) exit
-                swap = out(root)
-                out(root) = out(child)
-                out(child) = swap
-                root = child
-            end do
-        end subroutine sift
     end function sorted
+
+    !> Restore the heap order of a(start..last) below a(start).
+    pure subroutine sift(a, start, last)
+        integer, intent(inout) :: a(:)
+        integer, intent(in) :: start, last
+        integer :: root, child, swap
+        root = start
+        do
+            child = 2 * root
+            if (child > last) exit
+            if (child < last) then
+                if (a(child + 1) > a(child)) child = child + 1
+            end if
+            if (a(root) >= a(child)) exit
+            swap = a(root)
+            a(root) = a(child)
+            a(child) = swap
+            root = child
+        end do
+    end subroutine sift
 
     ! ------------------------------------------------------------------ differentiation
 
