@@ -25,6 +25,8 @@
 #                             docs/performance.md (about an hour of CPU on one core)
 #   make bench-long           the long runs against heyoka (about an hour), then the report
 #   make bench-quick          the whole bench pipeline in a few minutes (build/bench-quick)
+#   make bench-models         model files against the built-in models, chains from model
+#                             files (minutes); that section of docs/performance.md
 # Figures, models, C interface:
 #   make figures              every figure of docs/figures.md: CSV from `holosym figures`
 #                             into build/figures, PNG into docs/figures (matplotlib in
@@ -72,6 +74,7 @@ DOCS_VENV ?= build/venv-docs
 CMAKE_DIR ?= build/cmake
 
 .PHONY: all deps include-digest test test64 test-trap tables bench bench-long bench-quick bench-report \
+	bench-models bench-models-data \
 	pendulum linkage examples clean install check-install check-fpm-install cmake-deps \
 	cmake-test flang-deps test-flang check-examples check-version check-fpm-dependency \
 	profile docs docs-deps docs-tables docs-stability docs-performance mpi test-mpi scaling \
@@ -125,7 +128,25 @@ bench: deps include-digest
 		--reference $(BENCH_DIR)/reference.csv --heyoka $(BENCH_PYTHON) $(BENCH_ARGS)
 	$(FPM) run $(FPM_FLAGS) -- bench --scaling --out $(BENCH_DIR) $(SCALING_ARGS)
 	$(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) -- bench --scaling --out $(BENCH_DIR) $(SCALING_ARGS)
+	$(MAKE) bench-models-data
 	$(MAKE) bench-report
+
+# Model files against the built-in models (pendulum, linkage, chain of 64) and chains of
+# K = 8 .. 256 links from model files written by tools/chain_model.py, in both builds
+# (a few minutes), into $(BENCH_DIR); bench-models then rewrites that section of
+# docs/performance.md alone (make bench rewrites the whole page).
+MODEL_CHAINS ?= 8 16 32 64 128 256
+MODELS_ARGS ?=
+bench-models-data: deps include-digest
+	mkdir -p $(BENCH_DIR)/models
+	for k in $(MODEL_CHAINS); do \
+		$(PYTHON) tools/chain_model.py $$k $(BENCH_DIR)/models/chain$$k.hsm || exit 1; done
+	$(FPM) run $(FPM_FLAGS) -- bench --models --out $(BENCH_DIR) $(MODELS_ARGS)
+	$(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) -- bench --models --out $(BENCH_DIR) $(MODELS_ARGS)
+
+bench-models: bench-models-data
+	$(FPM) run $(FPM_FLAGS) -- bench --models-section $(BENCH_DIR) > $(BENCH_DIR)/models.md
+	$(PYTHON) tools/replace_section.py docs/performance.md $(BENCH_DIR)/models.md
 
 # The long runs (planar pendulum to T = 1e4 and 1e5, spherical pendulum to 1e4) against
 # heyoka, into $(BENCH_DIR)/long.csv; about an hour of CPU. Then docs/performance.md again.
@@ -157,6 +178,8 @@ bench-quick: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- bench --scaling --quick --out build/bench-quick
 	$(FPM) run $(FPM_FLAGS) -- bench --long --quick --out build/bench-quick \
 		--heyoka $(BENCH_PYTHON)
+	$(MAKE) bench-models-data BENCH_DIR=build/bench-quick MODEL_CHAINS="8 16 64" \
+		MODELS_ARGS=--quick
 	$(FPM) run $(FPM_FLAGS) -- bench --summarize build/bench-quick > /dev/null
 	BENCH_VENV=$(BENCH_VENV) ./tools/plot_bench.sh build/bench-quick
 

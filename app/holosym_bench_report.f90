@@ -12,10 +12,19 @@ module holosym_bench_report
     use holosym_cli_common, only: parse_integer, parse_real, fail
     use holosym_bench_scaling, only: scaling_header
     use holosym_bench_long, only: long_header
+    use holosym_bench_models, only: models_header, model_scaling_header
     implicit none
     private
 
-    public :: scaling_section, long_section, read_csv, csv_table_t, check_report_files
+    public :: scaling_section, long_section, models_section, read_csv, csv_table_t, &
+        check_report_files
+
+    !> Largest cost ratio of a model file to its built-in twin (the target).
+    real(real64), parameter :: model_ratio_target = 1.3_real64
+    !> Largest exponent of the model-file chain's cost per step against K (the target).
+    real(real64), parameter :: model_exponent_target = 1.1_real64
+    !> Longest load of the 256-link chain's model file, seconds (the target).
+    real(real64), parameter :: model_load_target = 1.0_real64
 
     !> Largest time in seconds a file may give (a bound that keeps ratios finite).
     real(wp), parameter :: max_seconds = 1.0e12_wp
@@ -104,6 +113,13 @@ contains
         if (status%ok()) call read_csv(dir // "/scaling64.csv", scaling_header, table, found, &
                                        status)
         if (status%ok()) call read_csv(dir // "/long.csv", long_header, table, found, status)
+        if (status%ok()) call read_csv(dir // "/models.csv", models_header, table, found, status)
+        if (status%ok()) call read_csv(dir // "/models64.csv", models_header, table, found, &
+                                       status)
+        if (status%ok()) call read_csv(dir // "/model_scaling.csv", model_scaling_header, &
+                                       table, found, status)
+        if (status%ok()) call read_csv(dir // "/model_scaling64.csv", model_scaling_header, &
+                                       table, found, status)
     end subroutine check_report_files
 
     !> What is wrong with the value `text` of the column `name` ("" when it is in range):
@@ -121,7 +137,11 @@ contains
         case ("precision")
             if (text /= "real128" .and. text /= "real64") problem = "is not real128 or real64"
         case ("path")
-            if (text /= "reduced" .and. text /= "general") problem = "is not reduced or general"
+            if (text /= "reduced" .and. text /= "general" .and. text /= "model" .and. &
+                text /= "builtin") problem = "is not reduced, general, model or builtin"
+        case ("model")
+            if (text /= "pendulum" .and. text /= "linkage" .and. text /= "chain64") &
+                problem = "is not pendulum, linkage or chain64"
         case ("system")
             if (text /= "pendulum" .and. text /= "linkage" .and. text /= "planar") &
                 problem = "is not pendulum, linkage or planar"
@@ -129,7 +149,7 @@ contains
             if (text /= "holosym" .and. text /= "heyoka") problem = "is not holosym or heyoka"
         case ("config")
             if (len(text) == 0) problem = "is empty"
-        case ("links", "n", "m", "steps", "max_rss_kb", "status")
+        case ("links", "n", "m", "steps", "max_rss_kb", "status", "M", "N", "G")
             call parse_integer(name, text, integer_value, local)
             if (.not. local%ok()) then
                 problem = "is not an integer"
@@ -389,6 +409,162 @@ contains
             end do
         end function memory_mb
     end subroutine scaling_section
+
+    !> Two tables read as one (the real128 and real64 files of a study); `found` when
+    !! either exists.
+    subroutine read_both(dir, name, header, table, found)
+        character(len=*), intent(in) :: dir, name, header
+        type(csv_table_t), intent(out) :: table
+        logical, intent(out) :: found
+        type(csv_table_t) :: quad, double
+        logical :: have_quad, have_double
+        type(holosym_status_t) :: status
+        call read_csv(dir // "/" // name // ".csv", header, quad, have_quad, status)
+        if (.not. status%ok()) have_quad = .false.
+        call read_csv(dir // "/" // name // "64.csv", header, double, have_double, status)
+        if (.not. status%ok()) have_double = .false.
+        found = have_quad .or. have_double
+        if (have_quad .and. have_double) then
+            table%names = quad%names
+            table%cells = reshape([character(len=field_length) :: quad%cells, double%cells], &
+                [size(quad%names), size(quad%cells, 2) + size(double%cells, 2)])
+        else if (have_quad) then
+            table = quad
+        else
+            table = double
+        end if
+    end subroutine read_both
+
+    !> The model-file section: each pair's cost against its built-in twin in both
+    !! precisions, the chains from model files against K, and the verdicts.
+    subroutine models_section(dir, unit)
+        character(len=*), intent(in) :: dir !! directory of the CSV files
+        type(output_t), intent(inout) :: unit !! the page
+        type(csv_table_t) :: pairs, chains
+        logical :: have_pairs, have_chains
+        character(len=:), allocatable :: line, key
+        character(len=field_length), allocatable :: keys(:)
+        character(len=7), parameter :: precisions(2) = ["real128", "real64 "]
+        real(real64) :: ratio, worst, exponent, load
+        integer :: r, k, p, met, total
+        integer, allocatable :: links(:)
+        call unit%line("")
+        call unit%line("## Model files against the built-in models")
+        call unit%line("")
+        call read_both(dir, "models", models_header, pairs, have_pairs)
+        call read_both(dir, "model_scaling", model_scaling_header, chains, have_chains)
+        if (.not. (have_pairs .or. have_chains)) then
+            call unit%line("No models.csv in " // dir // ": `make bench-models` (`holosym " // &
+                "bench --models`) makes it.")
+            return
+        end if
+        call unit%line("The same system as a model file (example/models/, and chains " // &
+            "written by tools/chain_model.py) and as the hand-written built-in model, from " // &
+            "the same start at the same (M, N, G) and h: CPU seconds per step, the least of " // &
+            "7 batches of each run in alternation (`holosym bench --models` in the real128 and real64 " // &
+            "builds; `make bench-models`). Target: a model file costs at most " // &
+            fixed(model_ratio_target) // "x the built-in model.")
+        call unit%line("")
+        call unit%line("| system | (M, N, G) | h | real128 built-in s | real128 model s | " // &
+            "ratio | real64 built-in s | real64 model s | ratio |")
+        call unit%line("|---|---|---|---|---|---|---|---|---|")
+        allocate (keys(0))
+        met = 0
+        total = 0
+        worst = 0
+        do r = 1, size(pairs%cells, 2)
+            key = field(pairs, "model", r) // "," // field(pairs, "M", r) // "," // &
+                field(pairs, "N", r) // "," // field(pairs, "G", r)
+            if (any(keys == key)) cycle
+            keys = [character(len=field_length) :: keys, key]
+            line = "| " // field(pairs, "model", r) // " | (" // field(pairs, "M", r) // ", " // &
+                field(pairs, "N", r) // ", " // field(pairs, "G", r) // ") | 1/" // &
+                int_text(nint(1 / number(pairs, "h", r))) // " |"
+            do p = 1, 2
+                k = pair_row(trim(precisions(p)), key)
+                if (k == 0) then
+                    line = line // " — | — | — |"
+                    cycle
+                end if
+                ratio = number(pairs, "ratio", k)
+                total = total + 1
+                if (ratio <= model_ratio_target) met = met + 1
+                worst = max(worst, ratio)
+                line = line // " " // sci(number(pairs, "builtin_seconds_per_step", k)) // &
+                    " | " // sci(number(pairs, "model_seconds_per_step", k)) // " | " // &
+                    fixed(ratio) // " |"
+            end do
+            call unit%line(line)
+        end do
+        call unit%line("")
+        if (total > 0) call unit%line("- Model file at most " // fixed(model_ratio_target) // &
+            "x the built-in model: met at " // int_text(met) // " of " // int_text(total) // &
+            " (system, scheme, precision); largest ratio " // fixed(worst) // ": " // &
+            verdict(met == total))
+        if (.not. have_chains) return
+        call unit%line("")
+        call unit%line("Chains of K links from model files (tools/chain_model.py K), (M, N, G) " // &
+            "= (4, 3, 5), h = 0.01: seconds per step of the model file and of the built-in " // &
+            "chain, and seconds to read, differentiate and compile the file and make its " // &
+            "start (load).")
+        call unit%line("")
+        call unit%line("| K | real128 model s | real128 built-in s | real64 model s | " // &
+            "real64 built-in s | load s (real128) |")
+        call unit%line("|---|---|---|---|---|---|")
+        allocate (links(0))
+        do r = 1, size(chains%cells, 2)
+            k = nint(number(chains, "links", r))
+            if (.not. any(links == k)) links = [links, k]
+        end do
+        do k = 1, size(links)
+            call unit%line("| " // int_text(links(k)) // " | " // &
+                cell(per_step(chains, "real128", "model", links(k))) // " | " // &
+                cell(per_step(chains, "real128", "builtin", links(k))) // " | " // &
+                cell(per_step(chains, "real64", "model", links(k))) // " | " // &
+                cell(per_step(chains, "real64", "builtin", links(k))) // " | " // &
+                cell(load_time(links(k))) // " |")
+        end do
+        call unit%line("")
+        do p = 1, 2
+            exponent = fitted_exponent(chains, trim(precisions(p)), "model")
+            if (exponent > 0) call unit%line("- Fitted exponent of the model-file chain's " // &
+                "cost per step against K (K = 8 .. 256), " // trim(precisions(p)) // ": **" // &
+                fixed(exponent) // "** (target: at most " // fixed(model_exponent_target) // &
+                "): " // verdict(exponent <= model_exponent_target))
+        end do
+        load = load_time(256)
+        if (load >= 0) call unit%line("- Reading, differentiating and compiling the " // &
+            "256-link chain's file and making its start: " // fixed(load) // " s (target: " // &
+            "under " // fixed(model_load_target) // " s): " // verdict(load < model_load_target))
+    contains
+        integer function pair_row(precision, key) result(row)
+            character(len=*), intent(in) :: precision, key
+            integer :: j
+            row = 0
+            do j = 1, size(pairs%cells, 2)
+                if (field(pairs, "precision", j) == precision .and. field(pairs, "model", j) &
+                    // "," // field(pairs, "M", j) // "," // field(pairs, "N", j) // "," // &
+                    field(pairs, "G", j) == key .and. nint(number(pairs, "status", j)) == 0) &
+                    row = j
+            end do
+        end function pair_row
+        real(real64) function load_time(k) result(seconds)
+            integer, intent(in) :: k
+            integer :: j
+            seconds = -1
+            do j = 1, size(chains%cells, 2)
+                if (field(chains, "precision", j) == "real128" .and. field(chains, "path", j) &
+                    == "model" .and. nint(number(chains, "links", j)) == k) seconds = &
+                    number(chains, "load_seconds", j)
+            end do
+        end function load_time
+        function cell(value) result(text)
+            real(real64), intent(in) :: value
+            character(len=:), allocatable :: text
+            text = "—"
+            if (value >= 0) text = sci(value)
+        end function cell
+    end subroutine models_section
 
     !> The long-run section: per case and target, holosym's and heyoka's cheapest run.
     subroutine long_section(dir, unit)

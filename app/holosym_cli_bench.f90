@@ -32,7 +32,9 @@ module holosym_cli_bench
     use holosym_bench_scaling, only: scaling_point, scaling_links, scaling_header, &
         general_links_limit
     use holosym_bench_long, only: run_long
-    use holosym_bench_report, only: scaling_section, long_section, check_report_files
+    use holosym_bench_report, only: scaling_section, long_section, models_section, &
+        check_report_files
+    use holosym_bench_models, only: run_models
     implicit none
     private
 
@@ -81,6 +83,8 @@ module holosym_cli_bench
         logical :: per_step = .true.                 !! run the per-step comparison
         logical :: scaling = .false.                 !! the chain scaling study instead
         logical :: long = .false.                    !! the long runs instead
+        logical :: models = .false.                  !! model files against built-ins instead
+        character(len=:), allocatable :: models_section !! only print this DIR's model section
         integer :: scaling_point = 0                 !! one chain of K links (internal)
         logical :: general = .false.                 !! with --scaling-point: general path
         logical :: help = .false.                    !! --help given
@@ -124,6 +128,11 @@ contains
             "  --long           instead: long runs (planar T = 1e4, 1e5, spherical 1e4) to", &
             "                   errors 1e-20 and 1e-24 (DIR/long.csv; about an hour;", &
             "                   --quick: T = 20 and 10)", &
+            "  --models         instead: model files against the built-in models (pendulum,", &
+            "                   linkage, chain of 64; DIR/models.csv) and chains of K = 8 ..", &
+            "                   256 from model files in DIR/models/ (DIR/model_scaling.csv;", &
+            "                   64.csv files in the real64 build; make bench-models)", &
+            "  --models-section DIR  print the model-file section of DIR/performance.md", &
             "  --no-per-step    skip the per-step comparison", &
             "  --reference FILE read the reference states (the real64 build uses the", &
             "                   real128 one)", &
@@ -150,6 +159,7 @@ contains
         options%summarize = ""
         options%systems = "pendulum,linkage,planar"
         options%heyoka = ""
+        options%models_section = ""
         status%code = HOLOSYM_SUCCESS
         status%message = ""
         i = 1
@@ -170,10 +180,12 @@ contains
                 options%scaling = .true.
             case ("--long")
                 options%long = .true.
+            case ("--models")
+                options%models = .true.
             case ("--general")
                 options%general = .true.
             case ("--out", "--systems", "--Mmax", "--order", "--budget", "--reference", &
-                  "--summarize", "--heyoka", "--scaling-point")
+                  "--summarize", "--heyoka", "--scaling-point", "--models-section")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
                 select case (name)
@@ -183,6 +195,8 @@ contains
                     options%reference = value
                 case ("--summarize")
                     options%summarize = value
+                case ("--models-section")
+                    options%models_section = value
                 case ("--heyoka")
                     options%heyoka = value
                 case ("--scaling-point")
@@ -1055,15 +1069,22 @@ contains
         call parse_bench_options(args, options, status)
         if (.not. parsed_command_proceeds("bench", status, options%help, bench_help(), &
                                           out, err_unit, exit_code)) return
+        if (len(options%models_section) > 0) then
+            call models_section(options%models_section, out)
+            exit_code = EXIT_OK
+            return
+        end if
         if (options%scaling_point > 0) then
             call scaling_point(options%scaling_point, options%general, options%quick, &
                                out, status)
             call finish(status)
             return
         end if
-        if (options%scaling .or. options%long) then
+        if (options%scaling .or. options%long .or. options%models) then
             call make_directories(options%out_dir, status)
             if (options%scaling .and. status%ok()) call run_scaling(options, err_unit, status)
+            if (options%models .and. status%ok()) call run_models(options%out_dir, &
+                options%quick, err_unit, status)
             if (options%long .and. status%ok()) call run_long(options%out_dir, &
                 options%heyoka, options%quick, err_unit, status)
             if (status%ok()) call write_reports(options%out_dir, status)
@@ -1244,6 +1265,7 @@ contains
         call scaling_section(dir, unit)
         call unit%line("")
         call unit%line("![cost against K](figures/scaling.png)")
+        call models_section(dir, unit)
         call long_section(dir, unit)
     end subroutine write_performance
 

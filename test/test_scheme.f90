@@ -14,6 +14,8 @@ module test_scheme
     use holosym_scheme_kernels_dp, only: template_sha256_dp => template_sha256
     use holosym_reduced_kernels_wp, only: reduced_sha256_wp => template_sha256
     use holosym_reduced_kernels_dp, only: reduced_sha256_dp => template_sha256
+    use holosym_tape_kernels_wp, only: tape_sha256_wp => template_sha256
+    use holosym_tape_kernels_dp, only: tape_sha256_dp => template_sha256
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
         check_status_code, skip
     use holosym_test_commands, only: file_exists, file_sha256
@@ -101,6 +103,8 @@ contains
                             template_sha256_dp)
         call check_template(error, "include/holosym_reduced_kernels.inc", reduced_sha256_wp, &
                             reduced_sha256_dp)
+        call check_template(error, "include/holosym_tape_kernels.inc", tape_sha256_wp, &
+                            tape_sha256_dp)
     end subroutine kernels_template_current
 
     !> The digests compiled into a template's two instances equal the file's.

@@ -40,8 +40,10 @@ module holosym_formula_model
 
     public :: formula_model, load_model, model_from_text
 
-    !> Entries of Phi up to which the rank test at load forms Phi densely.
-    integer(int64), parameter :: dense_rank_limit = 1048576
+    !> Entries of Phi up to which the rank test at load forms Phi Phi^T densely (m^2 n
+    !! operations); beyond, the Gram matrix is factored in band storage along the
+    !! constraints' order (linear in m for chain-like systems).
+    integer(int64), parameter :: dense_rank_limit = 4096
 
     !> A list of integers that grows by doubling.
     type :: int_list_t
@@ -438,36 +440,33 @@ contains
     end subroutine check_initial_state
 
     !> The initial values with every operation checked (at load, and where parameters
-    !! changed).
+    !! changed): all in one pass; on a failure, the value that fails is found and named.
     subroutine evaluate_initial(model, q, p, status)
         type(formula_model), intent(inout) :: model
         real(wp), intent(out) :: q(:), p(:)
         type(holosym_status_t), intent(out) :: status
         real(wp), allocatable :: nodes(:)
         real(wp) :: none(0)
-        integer :: k, failed, failure, node, n
+        integer :: k, failed, failure, n
+        integer, allocatable :: roots(:)
         n = model%n
         associate (d => model%definition)
-            do k = 1, 2 * n
-                if (k <= n) then
-                    node = d%initial_q(k)
-                else
-                    node = d%initial_p(k - n)
-                end if
-                if (node == 0) node = node_zero
-                call d%graph%evaluate_safely([node], none, model%values, nodes, failed, failure)
-                if (failed /= 0) then
-                    call set_status(status, HOLOSYM_INVALID_MODEL, where_text(model, failed, &
-                        d%initial_line) // initial_name(k) // " cannot be computed: " // &
-                        what_failed(model, failed, failure))
-                    return
-                end if
-                if (k <= n) then
-                    q(k) = nodes(node)
-                else
-                    p(k - n) = nodes(node)
-                end if
-            end do
+            roots = [d%initial_q, d%initial_p]
+            where (roots == 0) roots = node_zero
+            call d%graph%evaluate_safely(roots, none, model%values, nodes, failed, failure)
+            if (failed /= 0) then
+                do k = 1, 2 * n
+                    call d%graph%evaluate_safely(roots(k:k), none, model%values, nodes, &
+                                                 failed, failure)
+                    if (failed /= 0) exit
+                end do
+                call set_status(status, HOLOSYM_INVALID_MODEL, where_text(model, failed, &
+                    d%initial_line) // initial_name(k) // " cannot be computed: " // &
+                    what_failed(model, failed, failure))
+                return
+            end if
+            q = nodes(roots(1:n))
+            p = nodes(roots(n + 1:2 * n))
         end associate
         call set_status(status, HOLOSYM_SUCCESS, "")
     contains

@@ -5,15 +5,18 @@
 !!
 !! A tape's work array holds, in this order: the coordinates, momenta and parameters it
 !! reads (only those), its constants, then one slot per instruction; each instruction
-!! reads earlier slots. Outputs are slots. The same tape evaluates in working precision
-!! (`evaluate`) and in real64 (`evaluate_dp`, constants rounded once when the tape is
-!! built). Evaluation allocates nothing for tapes of up to `small_tape` slots, and is
-!! thread-safe: a tape is only read.
+!! reads earlier slots. Outputs are slots. The program is one integer array (`code`, laid
+!! out by holosym_tape_kernels.inc): the counts, the indices of the inputs, the
+!! instructions as (operation, operand, operand) triples and the output slots, so that an
+!! evaluation passes two arrays. The same tape evaluates in working precision (`evaluate`)
+!! and in real64 (`evaluate_dp`, constants rounded once when the tape is built).
+!! Evaluation allocates nothing for tapes of up to `small_tape` slots, and is thread-safe:
+!! a tape is only read.
 module holosym_tape
     use holosym_kinds, only: wp, dp
     use holosym_expression, only: expression_graph_t, op_constant, op_variable, op_parameter, &
         op_power_int
-    use holosym_tape_kernels_wp, only: run_tape_wp
+    use holosym_tape_kernels_wp, only: run_tape_wp, header_length
     use holosym_tape_kernels_dp, only: run_tape_dp
     implicit none
     private
@@ -31,15 +34,13 @@ module holosym_tape
         integer :: first = 1
         !> Size of the work array.
         integer :: slots = 0
-        !> Coordinates, momenta and parameters read, by index.
-        integer, allocatable :: q_index(:), p_index(:), parameter_index(:)
+        !> Number of instructions.
+        integer :: instructions = 0
+        !> The program (see holosym_tape_kernels.inc for its layout).
+        integer, allocatable :: code(:)
         !> The constants, in working precision and rounded to real64.
         real(wp), allocatable :: constants(:)
         real(dp), allocatable :: constants_dp(:)
-        !> The instructions (see holosym_tape_kernels.inc).
-        integer, allocatable :: ops(:), left(:), right(:)
-        !> Slot of each output.
-        integer, allocatable :: output_slot(:)
     contains
         !> Compile the nodes `roots` of a graph whose variables are n coordinates, then n
         !! momenta.
@@ -61,25 +62,36 @@ contains
         type(expression_graph_t), intent(inout) :: graph !! the expressions
         integer, intent(in) :: roots(:) !! the nodes to compute
         integer, intent(in) :: n        !! number of coordinates
-        integer, allocatable :: nodes(:), slot(:)
-        integer :: k, node, nq, np, nk, nc, ni, s
+        integer, allocatable :: nodes(:), slot(:), q_index(:), p_index(:), k_index(:)
+        integer :: k, node, nq, np, nk, nc, ni, s, at
         nodes = graph%cone(roots)
         allocate (slot(size(nodes)))
         associate (op => graph%op(nodes), index => graph%left(nodes))
-            nq = count(op == op_variable .and. index <= n)
-            np = count(op == op_variable .and. index > n)
-            nk = count(op == op_parameter)
-            nc = count(op == op_constant)
-            self%q_index = pack(index, op == op_variable .and. index <= n)
-            self%p_index = pack(index, op == op_variable .and. index > n) - n
-            self%parameter_index = pack(index, op == op_parameter)
+            q_index = pack(index, op == op_variable .and. index <= n)
+            p_index = pack(index, op == op_variable .and. index > n) - n
+            k_index = pack(index, op == op_parameter)
             self%constants = pack(graph%value(nodes), op == op_constant)
         end associate
+        nq = size(q_index)
+        np = size(p_index)
+        nk = size(k_index)
+        nc = size(self%constants)
         ni = size(nodes) - nq - np - nk - nc
         self%constants_dp = rounded(self%constants)
         self%first = nq + np + nk + nc + 1
         self%slots = size(nodes)
-        allocate (self%ops(ni), self%left(ni), self%right(ni))
+        self%instructions = ni
+        self%outputs = size(roots)
+        ! The layout of holosym_tape_kernels.inc: counts, inputs, triples, output slots.
+        allocate (self%code(header_length + nq + np + nk + 3 * ni + size(roots)))
+        self%code(1:header_length) = [nq, np, nk, nc, ni, size(roots)]
+        at = header_length
+        self%code(at + 1:at + nq) = q_index
+        at = at + nq
+        self%code(at + 1:at + np) = p_index
+        at = at + np
+        self%code(at + 1:at + nk) = k_index
+        at = at + nk
         ! Slots: the leaves in the order of the packs above, then the instructions.
         call number_leaves(graph, nodes, n, nq, np, nk, slot)
         s = 0
@@ -91,16 +103,15 @@ contains
             end select
             s = s + 1
             slot(k) = self%first + s - 1
-            self%ops(s) = graph%op(node)
-            self%left(s) = slot(position(graph%left(node)))
-            self%right(s) = graph%right(node)
+            self%code(at + 1) = graph%op(node)
+            self%code(at + 2) = slot(position(graph%left(node)))
+            self%code(at + 3) = graph%right(node)
             if (graph%right(node) > 0 .and. graph%op(node) /= op_power_int) &
-                self%right(s) = slot(position(graph%right(node)))
+                self%code(at + 3) = slot(position(graph%right(node)))
+            at = at + 3
         end do
-        self%outputs = size(roots)
-        allocate (self%output_slot(size(roots)))
         do k = 1, size(roots)
-            self%output_slot(k) = slot(position(roots(k)))
+            self%code(at + k) = slot(position(roots(k)))
         end do
     contains
         integer function position(target)
@@ -174,25 +185,11 @@ contains
         real(wp) :: small(small_tape)
         real(wp), allocatable :: large(:)
         if (self%slots <= small_tape) then
-            call run(small(:self%slots))
+            call run_tape_wp(self%code, self%constants, q, p, parameters, small, out)
         else
             allocate (large(self%slots))
-            call run(large)
+            call run_tape_wp(self%code, self%constants, q, p, parameters, large, out)
         end if
-    contains
-        subroutine run(v)
-            real(wp), intent(inout) :: v(:)
-            integer :: a, b, c
-            a = size(self%q_index)
-            b = a + size(self%p_index)
-            c = b + size(self%parameter_index)
-            v(1:a) = q(self%q_index)
-            v(a + 1:b) = p(self%p_index)
-            v(b + 1:c) = parameters(self%parameter_index)
-            v(c + 1:self%first - 1) = self%constants
-            call run_tape_wp(self%ops, self%left, self%right, self%first, v)
-            out(:self%outputs) = v(self%output_slot)
-        end subroutine run
     end subroutine tape_evaluate
 
     !> The outputs at (q, p) with the parameters' values, in real64.
@@ -205,32 +202,17 @@ contains
         real(dp) :: small(small_tape)
         real(dp), allocatable :: large(:)
         if (self%slots <= small_tape) then
-            call run(small(:self%slots))
+            call run_tape_dp(self%code, self%constants_dp, q, p, parameters, small, out)
         else
             allocate (large(self%slots))
-            call run(large)
+            call run_tape_dp(self%code, self%constants_dp, q, p, parameters, large, out)
         end if
-    contains
-        subroutine run(v)
-            real(dp), intent(inout) :: v(:)
-            integer :: a, b, c
-            a = size(self%q_index)
-            b = a + size(self%p_index)
-            c = b + size(self%parameter_index)
-            v(1:a) = q(self%q_index)
-            v(a + 1:b) = p(self%p_index)
-            v(b + 1:c) = parameters(self%parameter_index)
-            v(c + 1:self%first - 1) = self%constants_dp
-            call run_tape_dp(self%ops, self%left, self%right, self%first, v)
-            out(:self%outputs) = v(self%output_slot)
-        end subroutine run
     end subroutine tape_evaluate_dp
 
     !> Number of instructions.
     pure integer function tape_length(self)
         class(tape_t), intent(in) :: self
-        tape_length = 0
-        if (allocated(self%ops)) tape_length = size(self%ops)
+        tape_length = self%instructions
     end function tape_length
 
 end module holosym_tape

@@ -12,7 +12,7 @@ module holosym_tape_kernels_dp
     !> SHA-256 of include/holosym_tape_kernels.inc as compiled into this module
     !! (tools/include_digest.sh keeps it current; the test suite compares it with the file).
     character(len=*), parameter, public :: template_sha256 = &
-        "b7414a4bcd0081f2e2f57b7947327ab36106a56bdcb83c622fdab0512d760a8e"
+        "27abf84ebb1dbd4424c7110b7824e2835b46f0dd120e7fba6562492d476a1663"
 
 #define TAPE_RUN run_tape_dp
 #include "holosym_tape_kernels.inc"
