@@ -18,7 +18,7 @@
 module holosym_bench_long
     use, intrinsic :: iso_fortran_env, only: real64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS
+    use holosym_status_codes, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
     use holosym_manifold, only: manifold_residuals

@@ -17,7 +17,7 @@
 module holosym_bench_models
     use, intrinsic :: iso_fortran_env, only: real64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: holosym_status_t, int_str, HOLOSYM_SUCCESS
+    use holosym_status_codes, only: holosym_status_t, int_str, HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator
     use holosym_formula_model, only: formula_model, load_model

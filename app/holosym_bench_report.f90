@@ -7,7 +7,7 @@
 module holosym_bench_report
     use, intrinsic :: iso_fortran_env, only: real64
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, status_code_name, HOLOSYM_SUCCESS
+    use holosym_status_codes, only: holosym_status_t, status_code_name, HOLOSYM_SUCCESS
     use holosym_output, only: output_t, text_t, read_text_file
     use holosym_cli_common, only: parse_integer, parse_real, fail
     use holosym_bench_scaling, only: scaling_header
@@ -304,35 +304,22 @@ contains
     subroutine scaling_section(dir, unit)
         character(len=*), intent(in) :: dir !! directory of the CSV files
         type(output_t), intent(inout) :: unit !! the page
-        type(csv_table_t) :: quad, double, both
-        logical :: have_quad, have_double
+        type(csv_table_t) :: both
+        logical :: found
         integer :: r, links, k
         integer, allocatable :: all_links(:)
         real(real64) :: values(4), rss_first, rss_last, exponent, at100(2)
         character(len=:), allocatable :: line
         character(len=7), parameter :: precisions(2) = ["real128", "real64 "]
         character(len=7), parameter :: paths(2) = ["reduced", "general"]
-        type(holosym_status_t) :: status
         call unit%line("")
         call unit%line("## Scaling: a chain of K planar pendula")
         call unit%line("")
-        call read_csv(dir // "/scaling.csv", scaling_header, quad, have_quad, status)
-        if (.not. status%ok()) have_quad = .false.
-        call read_csv(dir // "/scaling64.csv", scaling_header, double, have_double, status)
-        if (.not. status%ok()) have_double = .false.
-        if (.not. (have_quad .or. have_double)) then
+        call read_both(dir, "scaling", scaling_header, both, found)
+        if (.not. found) then
             call unit%line("No scaling.csv in " // dir // ": `holosym bench --scaling` " // &
                 "makes it.")
             return
-        end if
-        if (have_quad .and. have_double) then
-            both%names = quad%names
-            both%cells = reshape([character(len=field_length) :: quad%cells, double%cells], [ &
-                size(quad%names), size(quad%cells, 2) + size(double%cells, 2)])
-        else if (have_quad) then
-            both = quad
-        else
-            both = double
         end if
         call unit%line("n = 2K, m = K, (M, N, G) = (4, 3, 5), h = 0.01 (command: " // &
             "`holosym bench --scaling`, in the real128 and real64 builds). Seconds per step; " // &

@@ -8,7 +8,7 @@
 module holosym_benchmark
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_STEP_TOO_LARGE
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t

@@ -8,7 +8,7 @@
 module holosym_cli
     use holosym_release, only: holosym_version
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, int_str
+    use holosym_status_codes, only: holosym_status_t, int_str
     use holosym_output, only: output_t, standard_output, open_output
     use holosym_cli_common, only: cli_argument_t, join_lines, EXIT_OK, EXIT_USAGE, EXIT_FAILURE
     use holosym_cli_simulate, only: simulate_command

@@ -17,7 +17,7 @@
 module holosym_cli_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: holosym_status_t, int_str, real_str, status_code_name, &
+    use holosym_status_codes, only: holosym_status_t, int_str, real_str, status_code_name, &
         HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_benchmark, only: bench_row_t, bench_settings_t, reference_state, holosym_run, &

@@ -6,7 +6,7 @@
 !! the commands report; only the main program turns exit codes into the process status.
 module holosym_cli_common
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, int_str, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+    use holosym_status_codes, only: holosym_status_t, int_str, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_output, only: output_t
     use holosym_decimal, only: read_decimal, number_ok, number_out_of_range
     implicit none

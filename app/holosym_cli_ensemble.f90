@@ -10,7 +10,7 @@
 module holosym_cli_ensemble
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, status_code_name, int_str, real_str, &
+    use holosym_status_codes, only: holosym_status_t, status_code_name, int_str, real_str, &
         HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_task_farm, only: task_farm, openmp_farm

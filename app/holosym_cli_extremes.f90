@@ -4,7 +4,7 @@
 !! the error unit. The studies themselves live in holosym_extremes.
 module holosym_cli_extremes
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, int_str, status_code_name, HOLOSYM_SUCCESS
+    use holosym_status_codes, only: holosym_status_t, int_str, status_code_name, HOLOSYM_SUCCESS
     use holosym_extremes, only: extremes_settings_t, extremes_settings, long_run_result_t, &
         run_long_study, growth_result_t, run_growth_study, tiny_cell_t, run_tiny_study, &
         high_order_row_t, run_high_order_study, large_step_cell_t, run_large_step_study, &

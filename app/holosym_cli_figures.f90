@@ -27,7 +27,7 @@
 module holosym_cli_figures
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, int_str, real_str, status_code_name, &
+    use holosym_status_codes, only: holosym_status_t, int_str, real_str, status_code_name, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_manifold, only: manifold_residuals

@@ -8,7 +8,7 @@ module holosym_cli_simulate
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, status_code_name, int_str, real_str, &
+    use holosym_status_codes, only: holosym_status_t, status_code_name, int_str, real_str, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer

@@ -5,7 +5,7 @@
 module holosym_convergence
     use, intrinsic :: iso_fortran_env, only: error_unit
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, &
         HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_ORDER, HOLOSYM_STEP_TOO_LARGE
     use holosym_problem, only: constrained_hamiltonian

@@ -13,7 +13,7 @@
 module holosym_extremes
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t

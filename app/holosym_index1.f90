@@ -11,7 +11,7 @@
 !! The second derivatives come from the system's `hessian` and `constraint_hessian`.
 module holosym_index1
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, is_finite, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NONFINITE_VALUE, &
         HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_STEP_SIZE
     use holosym_problem, only: constrained_hamiltonian

@@ -20,7 +20,7 @@
 module holosym_output
     use, intrinsic :: iso_c_binding, only: c_int, c_long, c_char, c_null_char
     use, intrinsic :: iso_fortran_env, only: error_unit
-    use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+    use holosym_status_codes, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_text_file, only: text_t => text_line_t, read_text_lines, TEXT_NOT_ACCEPTED
     implicit none
     private

@@ -12,7 +12,7 @@
 !! either.
 module holosym_systems
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_formula_model, only: formula_model, load_model

@@ -3,7 +3,7 @@
 !! High-order symplectic integration of Hamiltonian systems with holonomic constraints,
 !! in quadruple precision. The other modules are internal: the public entities users need
 !! are re-exported here, and the pages of the modules that define them document them.
-!! Left out on purpose: the message helpers of holosym_status (`set_status`, `int_str`,
+!! Left out on purpose: the message helpers of holosym_status_codes (`set_status`, `int_str`,
 !! `real_str`, `is_finite`), the CSV helper `parse_csv_fields` of holosym_ensemble_files,
 !! the text files of holosym_text_file (`text_file_t`, `read_text_lines`), `sorted_order`
 !! of holosym_ensemble and the kernel modules of the schemes.
@@ -73,11 +73,11 @@
 !!   `HOLOSYM_NEWTON_NOT_CONVERGED`, `HOLOSYM_NEWTON_DIVERGED`, `HOLOSYM_NONFINITE_VALUE`,
 !!   `HOLOSYM_RANK_DEFICIENT_CONSTRAINTS`, `HOLOSYM_STEP_TOO_LARGE`,
 !!   `HOLOSYM_STEP_TOO_SMALL`: the status codes (0 success, negative invalid input,
-!!   positive numerical failure; see [[holosym_status]] and docs/status-codes.md).
+!!   positive numerical failure; see [[holosym_status_codes]] and docs/status-codes.md).
 module holosym
     use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_release, only: holosym_version
-    use holosym_status, only: holosym_status_t, status_code_name, &
+    use holosym_status_codes, only: holosym_status_t, status_code_name, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &

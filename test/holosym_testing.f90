@@ -3,7 +3,7 @@
 !! per test and a final `N passed, M failed`.
 module holosym_testing
     use holosym_kinds, only: wp
-    use holosym_status, only: real_str, int_str
+    use holosym_status_codes, only: real_str, int_str
     implicit none
     private
 

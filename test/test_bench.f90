@@ -6,7 +6,7 @@
 module test_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: int_str, real_str, HOLOSYM_SUCCESS, HOLOSYM_NEWTON_DIVERGED
+    use holosym_status_codes, only: int_str, real_str, HOLOSYM_SUCCESS, HOLOSYM_NEWTON_DIVERGED
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
         split_field
     use holosym_test_commands, only: command_result_t, text_line_t, run_holosym, run_shell, &

@@ -7,7 +7,7 @@ module test_capi
     use, intrinsic :: iso_c_binding, only: c_int, c_ptr, c_funptr, c_funloc, c_null_ptr, &
         c_null_funptr, c_associated, c_loc, c_char, c_f_pointer
     use holosym_kinds, only: wp
-    use holosym_status, only: HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
+    use holosym_status_codes, only: HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_STEP_SIZE, &
         HOLOSYM_NOT_INITIALIZED, HOLOSYM_NONFINITE_VALUE, HOLOSYM_USER_ABORT, &
         HOLOSYM_INVALID_MODEL, holosym_status_t
@@ -37,6 +37,7 @@ contains
             new_test("observer_and_dense_output", observer_and_dense), &
             new_test("rejects_bad_input", bad_input), &
             new_test("model_through_the_c_interface", model_through_c), &
+            new_test("water_through_the_c_interface", water_through_c), &
             new_test("model_calls_reject_bad_input", model_bad_input)]
     end function capi_tests
 
@@ -368,6 +369,46 @@ contains
         call check(error, all(real(p, wp) == pf), "the start follows omega")
         call holosym_destroy(handle)
     end subroutine model_through_c
+
+    !> The water molecule through holosym_model_create gives, at T = 10 with (8, 7, 9) and
+    !! h = 1/16, the bits of the Fortran model (which agrees with its 50-digit reference
+    !! there: formula/water_and_fourbar_match_40_digit_references).
+    subroutine water_through_c(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(kind=c_char), allocatable, target :: text(:)
+        type(c_ptr) :: handle
+        type(formula_model) :: model
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        integer(c_int), target :: done
+        real(c_real) :: q(9), p(9)
+        real(wp) :: qf(9), pf(9), difference
+        character(len=16) :: shown
+        text = c_text(file_text("example/models/water.hsm"))
+        handle = holosym_model_create(c_loc(text), 8_c_int, 7_c_int, 9_c_int)
+        call check_status_code(error, int(holosym_status(handle)), HOLOSYM_SUCCESS, &
+            message_of(handle))
+        if (allocated(error)) return
+        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+            HOLOSYM_SUCCESS, message_of(handle))
+        call check_status_code(error, int(holosym_integrate(handle, q, p, 1.0_c_real / 16, &
+            160_c_int, c_null_funptr, c_null_ptr, c_loc(done))), HOLOSYM_SUCCESS, &
+            message_of(handle))
+        call holosym_destroy(handle)
+        if (allocated(error)) return
+        call load_model("example/models/water.hsm", model, status)
+        call model%initial_state(qf, pf, status)
+        call integ%init(model, 8, 7, 9, status)
+        call integ%integrate(model, qf, pf, 1.0_wp / 16, 160, status=status)
+        difference = max(maxval(abs(real(q, wp) - qf)), maxval(abs(real(p, wp) - pf)))
+        write (shown, '(es12.4)') difference
+        ! status%ok() here, where the C function holosym_status is visible: a module of that
+        ! name made gfortran call the C function for the type-bound `ok`.
+        call check(error, status%ok(), "Fortran path: " // status%message)
+        write (shown, '(es12.4)') difference
+        call check(error, difference == 0, "the C handle and the " // &
+            "Fortran integrator differ by " // trim(shown))
+    end subroutine water_through_c
 
     !> Bad model text, names, indices and handles: each call fails with its code and a
     !! message, and leaves the arrays unchanged.

@@ -8,7 +8,7 @@
 module test_cli_hardening
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status, only: int_str
+    use holosym_status_codes, only: int_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, overflow_traps
     use holosym_test_commands, only: command_result_t, text_line_t, run_holosym, run_shell, &
         shell_quote, holosym_executable, scratch_path, read_lines, write_lines, file_exists, &

@@ -13,7 +13,7 @@ module test_ensemble
         integrate_member, record_reader_t, put, project_to_manifold, HOLOSYM_SUCCESS, &
         HOLOSYM_OFF_MANIFOLD, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_USER_ABORT, HOLOSYM_INVALID_STEP_SIZE
-    use holosym_status, only: int_str
+    use holosym_status_codes, only: int_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check
     use holosym_test_commands, only: command_result_t, run_holosym, run_shell, shell_quote, &
         holosym_executable, scratch_path, read_lines, write_lines, file_exists, file_sha256, &

@@ -12,7 +12,7 @@ module test_errors
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS
-    use holosym_status, only: int_str, real_str
+    use holosym_status_codes, only: int_str, real_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
         check_status_code
     implicit none
@@ -770,7 +770,7 @@ contains
     end subroutine absurd_step
 
     !> The same constraint stated twice (Phi of rank 1 < m = 2):
-    !! HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, as documented in holosym_status.
+    !! HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, as documented in holosym_status_codes.
     !! KNOWN SRC GAP: no src procedure ever returns this code (see the report); the
     !! step currently fails with HOLOSYM_SINGULAR_MATRIX instead.
     subroutine rank_deficient_constraints(error)

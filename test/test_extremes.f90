@@ -19,7 +19,7 @@ module test_extremes
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
         HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
-    use holosym_status, only: int_str, real_str
+    use holosym_status_codes, only: int_str, real_str
     use holosym_newton, only: newton_solve
     use holosym_scheme, only: discrete_scheme
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
@@ -50,7 +50,7 @@ module test_extremes
     integer, parameter :: max_offset_exponent = min(20, precision(1.0_wp) - 8)
     !> Cases of the randomized test.
     integer, parameter :: random_cases = 10000
-    !> Every status code the library documents (holosym_status).
+    !> Every status code the library documents (holosym_status_codes).
     integer, parameter :: documented_codes(*) = [HOLOSYM_INVALID_ORDER, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_STEP_SIZE, &
         HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, HOLOSYM_USER_ABORT, &

@@ -4,7 +4,7 @@
 !! its fitted growth exponents consistent with the RMS table they are fitted to.
 module test_extremes_cli
     use holosym_kinds, only: wp
-    use holosym_status, only: int_str, real_str
+    use holosym_status_codes, only: int_str, real_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, split_field
     use holosym_test_commands, only: command_result_t, text_line_t, run_holosym, &
         any_line_contains

@@ -5,7 +5,7 @@
 !! rejected. No plotting here: `make figures` draws the PNGs.
 module test_figures
     use holosym_kinds, only: wp
-    use holosym_status, only: int_str, real_str
+    use holosym_status_codes, only: int_str, real_str
     use holosym_observers, only: trajectory_header
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, split_field
     use holosym_test_commands, only: command_result_t, text_line_t, run_holosym, &

@@ -5,7 +5,7 @@
 module test_formula
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp, wp_is_double
-    use holosym_status, only: holosym_status_t, real_str, int_str, is_finite, &
+    use holosym_status_codes, only: holosym_status_t, real_str, int_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_MODEL, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t
@@ -15,6 +15,7 @@ module test_formula
     use holosym_model_dumbbell, only: sphere_dumbbell
     use holosym_model_magnetic, only: magnetic_sphere
     use holosym_model_generic, only: generic_pendulum
+    use holosym_test_systems, only: builtin_system
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
         split_field, overflow_traps
     use holosym_test_commands, only: command_result_t, run_shell, scratch_path, text_line_t, &
@@ -29,6 +30,9 @@ module test_formula
     character(len=*), parameter :: twins(*) = [character(len=24) :: "spherical_pendulum", &
         "spring_linkage", "planar_pendulum", "double_pendulum", "sphere_dumbbell", &
         "magnetic_sphere", "generic_pendulum"]
+    !> The built-in systems they stand for (holosym_test_systems' names).
+    character(len=*), parameter :: builtin_names(*) = [character(len=10) :: "pendulum", &
+        "linkage", "planar", "double", "dumbbell", "magnetic", "generic"]
     character(len=*), parameter :: model_dir = "example/models/"
     !> Every model file of example/models.
     character(len=*), parameter :: examples(*) = [character(len=24) :: twins, "water", &
@@ -59,53 +63,12 @@ contains
 
     !> The built-in system a twin stands for, with its initial state.
     subroutine builtin(name, sys, q, p)
-        character(len=*), intent(in) :: name
+        character(len=*), intent(in) :: name !! the twin's file name
         class(constrained_hamiltonian), allocatable, intent(out) :: sys
         real(wp), allocatable, intent(out) :: q(:), p(:)
-        type(spherical_pendulum) :: sphere
-        type(spring_linkage) :: linkage
-        type(planar_pendulum) :: planar
-        type(pendulum_chain) :: chain
-        type(sphere_dumbbell) :: dumbbell
-        type(magnetic_sphere) :: magnetic
-        type(generic_pendulum) :: generic
-        select case (name)
-        case ("spherical_pendulum")
-            sphere = spherical_pendulum()
-            allocate (q(3), p(3))
-            call sphere%initial_state(q, p)
-            allocate (sys, source=sphere)
-        case ("spring_linkage")
-            linkage = spring_linkage()
-            allocate (q(6), p(6))
-            call linkage%initial_state(q, p)
-            allocate (sys, source=linkage)
-        case ("planar_pendulum")
-            planar = planar_pendulum()
-            allocate (q(2), p(2))
-            call planar%initial_state(q, p)
-            allocate (sys, source=planar)
-        case ("double_pendulum")
-            chain = pendulum_chain(2, masses=[1.0_wp, 2.0_wp], lengths=[1.0_wp, 0.7_wp])
-            allocate (q(4), p(4))
-            call chain%state_from_angles([1.0_wp, 0.5_wp], [0.0_wp, 0.0_wp], q, p)
-            allocate (sys, source=chain)
-        case ("sphere_dumbbell")
-            dumbbell = sphere_dumbbell()
-            allocate (q(6), p(6))
-            call dumbbell%initial_state(q, p)
-            allocate (sys, source=dumbbell)
-        case ("magnetic_sphere")
-            magnetic = magnetic_sphere()
-            allocate (q(3), p(3))
-            call magnetic%initial_state(q, p)
-            allocate (sys, source=magnetic)
-        case ("generic_pendulum")
-            generic = generic_pendulum()
-            allocate (q(3), p(3))
-            call generic%initial_state(q, p)
-            allocate (sys, source=generic)
-        end select
+        integer :: k
+        k = findloc(twins, name, 1)
+        call builtin_system(trim(builtin_names(k)), sys, q, p)
     end subroutine builtin
 
     !> Load example/models/NAME.hsm.

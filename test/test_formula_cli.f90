@@ -4,7 +4,7 @@
 !! refused with a message that says where.
 module test_formula_cli
     use holosym_kinds, only: wp
-    use holosym_status, only: int_str, real_str
+    use holosym_status_codes, only: int_str, real_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, split_field
     use holosym_test_commands, only: command_result_t, text_line_t, run_holosym, &
         scratch_path, read_lines, any_line_contains, write_lines, words

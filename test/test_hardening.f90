@@ -17,7 +17,7 @@ module test_hardening
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, &
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
         HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
-    use holosym_status, only: int_str, real_str
+    use holosym_status_codes, only: int_str, real_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
         skip, overflow_traps
     implicit none

@@ -2,7 +2,7 @@
 !! whatever characters they hold, exit codes and both outputs are captured, and the
 !! `holosym` executable is found.
 module test_harness
-    use holosym_status, only: int_str
+    use holosym_status_codes, only: int_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check
     use holosym_test_commands, only: command_result_t, run_shell, run_holosym, shell_quote, &
         holosym_executable, file_exists

@@ -3,7 +3,7 @@
 !! constraint manifold, dense output and the compensated multi-step driver.
 module test_integrator
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, real_str, int_str
+    use holosym_status_codes, only: holosym_status_t, real_str, int_str
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t
     use holosym_models, only: spherical_pendulum, spring_linkage

@@ -1,7 +1,7 @@
 !> Tests of the lagrange part of holosym: basis values, derivatives and matrices.
 module test_lagrange
     use holosym_kinds, only: wp
-    use holosym_status, only: int_str
+    use holosym_status_codes, only: int_str
     use holosym_quadrature, only: gauss_lobatto, gauss_legendre
     use holosym_lagrange, only: lagrange_values, lagrange_derivatives, lagrange_matrices
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close

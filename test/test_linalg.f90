@@ -2,7 +2,7 @@
 module test_linalg
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_positive_inf
     use holosym_kinds, only: wp, dp
-    use holosym_status, only: int_str, real_str
+    use holosym_status_codes, only: int_str, real_str
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
         lu_solve_dp
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close

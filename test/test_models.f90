@@ -6,7 +6,7 @@
 !! schemes that the generic potential makes nonsingular.
 module test_models
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_SINGULAR_MATRIX
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
         difference_constraint_hessian
@@ -17,6 +17,7 @@ module test_models
     use holosym_model_dumbbell, only: sphere_dumbbell
     use holosym_model_magnetic, only: magnetic_sphere
     use holosym_model_generic, only: generic_pendulum
+    use holosym_test_systems, only: builtin_system
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
         split_field
     use holosym_test_commands, only: text_line_t, read_lines, command_result_t, run_holosym, &
@@ -49,44 +50,6 @@ contains
             new_test("simulate_and_tables_accept_each_model", cli_accepts_models)]
     end function models_tests
 
-    !> The model called `name` and its documented start state.
-    subroutine make_model(name, sys, q, p)
-        character(len=*), intent(in) :: name
-        class(constrained_hamiltonian), allocatable, intent(out) :: sys
-        real(wp), allocatable, intent(out) :: q(:), p(:)
-        type(pendulum_chain) :: chain
-        type(sphere_dumbbell) :: dumbbell
-        type(magnetic_sphere) :: magnetic
-        type(generic_pendulum) :: generic
-        select case (name)
-        case ("double")
-            chain = pendulum_chain(2, masses=[1.0_wp, 2.0_wp], lengths=[1.0_wp, 0.7_wp])
-            allocate (q(4), p(4))
-            call chain%state_from_angles([1.0_wp, 0.5_wp], [0.0_wp, 0.0_wp], q, p)
-            allocate (sys, source=chain)
-        case ("chain4")
-            chain = pendulum_chain(4)
-            allocate (q(8), p(8))
-            call chain%state_from_angles([0.5_wp, 0.4_wp, 0.3_wp, 0.2_wp], [0.0_wp, 0.0_wp, &
-                0.0_wp, 0.0_wp], q, p)
-            allocate (sys, source=chain)
-        case ("dumbbell")
-            dumbbell = sphere_dumbbell()
-            allocate (q(6), p(6))
-            call dumbbell%initial_state(q, p)
-            allocate (sys, source=dumbbell)
-        case ("magnetic")
-            magnetic = magnetic_sphere()
-            allocate (q(3), p(3))
-            call magnetic%initial_state(q, p)
-            allocate (sys, source=magnetic)
-        case default
-            generic = generic_pendulum()
-            allocate (q(3), p(3))
-            call generic%initial_state(q, p)
-            allocate (sys, source=generic)
-        end select
-    end subroutine make_model
 
     !> dH/dq, dH/dp, Phi and the exact Hessians against central differences at a state
     !! off the start (so that no entry vanishes by symmetry).
@@ -101,7 +64,7 @@ contains
         ! Central differences of step eps^(1/3) are accurate to about eps^(2/3).
         tolerance = 1.0e3_wp * eps**(2.0_wp / 3)
         do s = 1, size(catalogue)
-            call make_model(trim(catalogue(s)), sys, q, p)
+            call builtin_system(trim(catalogue(s)), sys, q, p)
             n = sys%n
             m = sys%m
             q = q + 0.01_wp * [(sin(real(i, wp)), i = 1, n)]
@@ -168,7 +131,7 @@ contains
         logical :: declared
         integer :: s, e
         do s = 1, size(catalogue)
-            call make_model(trim(catalogue(s)), sys, q, p)
+            call builtin_system(trim(catalogue(s)), sys, q, p)
             allocate (mass(sys%n), g(sys%n), g2(sys%n), jac(sys%m, sys%n))
             declared = sys%diagonal_mass(mass)
             call check(error, declared .neqv. catalogue(s) == "magnetic", trim(catalogue(s)) &
@@ -206,7 +169,7 @@ contains
         real(wp) :: position, velocity, scaled_position, scaled_velocity
         integer :: s
         do s = 1, size(catalogue)
-            call make_model(trim(catalogue(s)), sys, q, p)
+            call builtin_system(trim(catalogue(s)), sys, q, p)
             call manifold_residuals(sys, q, p, position, velocity, scaled_position, &
                                     scaled_velocity)
             call check(error, scaled_position <= 8 * eps .and. scaled_velocity <= 8 * eps, &
@@ -227,7 +190,7 @@ contains
         real(wp) :: energy0, energy_error, position, velocity
         integer :: s, k
         do s = 1, size(catalogue)
-            call make_model(trim(catalogue(s)), sys, q, p)
+            call builtin_system(trim(catalogue(s)), sys, q, p)
             call integrator%init(sys, 2, 1, 3, status)
             call check_status_code(error, status%code, HOLOSYM_SUCCESS, trim(catalogue(s)) // &
                 ": init")
@@ -269,7 +232,7 @@ contains
         call check(error, ios == 0 .and. size(lines) > 0, "cannot read " // reference_file)
         if (allocated(error)) return
         do s = 1, size(catalogue)
-            call make_model(trim(catalogue(s)), sys, q, p)
+            call builtin_system(trim(catalogue(s)), sys, q, p)
             allocate (q0(sys%n), p0(sys%n), qt(sys%n), pt(sys%n))
             call reference_values(lines, trim(catalogue(s)), "q0", q0, error)
             call reference_values(lines, trim(catalogue(s)), "p0", p0, error)

@@ -12,7 +12,7 @@ module test_observers
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_NOT_INITIALIZED, HOLOSYM_USER_ABORT, HOLOSYM_SINGULAR_MATRIX, &
         HOLOSYM_INVALID_DIMENSION
-    use holosym_status, only: int_str, real_str
+    use holosym_status_codes, only: int_str, real_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
         split_field
     use holosym_test_commands, only: command_result_t, text_line_t, run_holosym, &

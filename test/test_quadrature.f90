@@ -1,7 +1,7 @@
 !> Tests of the quadrature part of holosym: Gauss-Legendre and Gauss-Lobatto rules on [0, 1].
 module test_quadrature
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, int_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &

@@ -3,7 +3,7 @@
 !! round-off, general = separable path).
 module test_rattle
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NOT_INITIALIZED
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator

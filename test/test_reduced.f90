@@ -3,7 +3,7 @@
 !! it rejects bad structure declarations, and it keeps the state on failures.
 module test_reduced
     use holosym_kinds, only: wp, dp
-    use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t

@@ -2,7 +2,7 @@
 module test_scheme
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp, dp
-    use holosym_status, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION
     use holosym_quadrature, only: gauss_lobatto, gauss_legendre
     use holosym_problem, only: constrained_hamiltonian

@@ -6,7 +6,7 @@
 module test_speed
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp
-    use holosym_status, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SINGULAR_MATRIX
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
         difference_constraint_hessian

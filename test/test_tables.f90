@@ -4,7 +4,7 @@
 !! rejected with exit status 2.
 module test_tables
     use holosym_kinds, only: wp
-    use holosym_status, only: HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, real_str, int_str
+    use holosym_status_codes, only: HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, real_str, int_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, split_field
     use holosym_test_commands, only: command_result_t, text_line_t, run_holosym, scratch_path, &
         read_lines, any_line_contains, words

@@ -18,7 +18,7 @@ module holosym_mpi_farm
     use mpi_f08, only: MPI_Comm, MPI_Status, MPI_COMM_WORLD, MPI_ANY_SOURCE, MPI_ANY_TAG, &
         MPI_CHARACTER, MPI_INTEGER, MPI_LOGICAL, MPI_LAND, MPI_Comm_rank, MPI_Comm_size, &
         MPI_Iprobe, MPI_Probe, MPI_Get_count, MPI_Recv, MPI_Send, MPI_Allreduce, MPI_Bcast
-    use holosym_status, only: holosym_status_t, set_status, int_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_USER_ABORT
     use holosym_task_farm, only: farm_job, task_farm
     use holosym_records, only: record_reader_t, put

@@ -28,7 +28,7 @@
 !! computes it with its derivatives.
 module holosym_compositions
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_NEWTON_NOT_CONVERGED
     use holosym_linalg, only: lu_factor, lu_solve

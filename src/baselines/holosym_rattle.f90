@@ -28,7 +28,7 @@
 module holosym_rattle
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_NOT_INITIALIZED, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_STEP_SIZE, &
         HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, &

@@ -6,7 +6,7 @@
 !! The rules are symmetric about 1/2 by construction and the weights sum to 1.
 module holosym_quadrature
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, &
                               HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH
     implicit none
     private

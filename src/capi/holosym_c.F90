@@ -16,10 +16,7 @@
 !!
 !! A real128 build with a compiler other than gfortran has no C kind for the library's
 !! reals: the module then holds only `c_interface_available = .false.`.
-!!
-!! Outcomes are tested as `status%code == HOLOSYM_SUCCESS`, never with `status%ok()`: in
-!! this module gfortran 12 (release profile) compiles the type-bound `ok` into a call of
-!! the C function `holosym_status`, which shares its name with the module of the type.
+
 module holosym_c
 #if defined(HOLOSYM_REAL64) || defined(__GFORTRAN__)
     use, intrinsic :: iso_c_binding, only: c_int, c_char, c_ptr, c_funptr, c_null_ptr, &
@@ -29,7 +26,7 @@ module holosym_c
 #endif
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION
     use holosym_problem, only: constrained_hamiltonian
     use holosym_formula_model, only: formula_model, model_from_text
@@ -424,18 +421,27 @@ contains
         integer(c_int), value :: size                 !! room in buffer, including the NUL
         type(c_handle), pointer :: handle
         character(len=:), allocatable :: text
-        integer :: i, count
         handle => handle_of(ptr)
         text = "NULL integrator"
         if (associated(handle)) text = handle%message
-        holosym_message = int(len(text), c_int)
+        holosym_message = copy_text(text, buffer, size)
+    end function holosym_message
+
+    !> Copy `text` into a C buffer of `size` characters (NUL-terminated, truncated to
+    !! size - 1 characters); the text's full length.
+    integer(c_int) function copy_text(text, buffer, size) result(length)
+        character(len=*), intent(in) :: text
+        character(kind=c_char), intent(out) :: buffer(*)
+        integer(c_int), intent(in) :: size
+        integer :: i, count
+        length = int(len(text), c_int)
         if (size < 1) return
         count = min(len(text), int(size) - 1)
         do i = 1, count
             buffer(i) = text(i:i)
         end do
         buffer(count + 1) = c_null_char
-    end function holosym_message
+    end function copy_text
 
     !> int holosym_step(holosym_integrator *integrator, holosym_real *q, holosym_real *p,
     !! holosym_real h): one step in place; q and p unchanged on failure. Codes: those of
@@ -801,7 +807,7 @@ contains
         type(formula_model), pointer :: model
         type(c_handle), pointer :: handle
         character(len=:), allocatable :: text
-        integer :: i, count, last
+        integer :: last
         model => model_of(ptr, "holosym_model_name", holosym_model_name)
         if (.not. associated(model)) return
         handle => handle_of(ptr)
@@ -831,13 +837,7 @@ contains
             text = model%momentum_name(int(index))
         end select
         holosym_model_name = refuse(handle, HOLOSYM_SUCCESS, "")
-        holosym_model_name = int(len(text), c_int)
-        if (size < 1) return
-        count = min(len(text), int(size) - 1)
-        do i = 1, count
-            buffer(i) = text(i:i)
-        end do
-        buffer(count + 1) = c_null_char
+        holosym_model_name = copy_text(text, buffer, size)
     end function holosym_model_name
 
 #else

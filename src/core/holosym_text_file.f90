@@ -16,11 +16,12 @@ module holosym_text_file
     use, intrinsic :: iso_c_binding, only: c_ptr, c_null_ptr, c_associated, c_char, c_int, &
         c_size_t, c_null_char
     use, intrinsic :: iso_fortran_env, only: int64
-    use holosym_status, only: int_str
+    use holosym_status_codes, only: int_str
     implicit none
     private
 
-    public :: text_file_t, text_line_t, read_text_lines, max_text_line_length
+    public :: text_file_t, text_line_t, read_text_lines, max_text_line_length, &
+        control_position
     public :: TEXT_CANNOT_OPEN, TEXT_CANNOT_READ, TEXT_NOT_ACCEPTED
 
     !> Longest line `read_text_lines` accepts (1 MiB).

@@ -28,7 +28,8 @@ module holosym_ensemble_files
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+    use holosym_decimal, only: read_decimal, number_ok
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_ensemble, only: ensemble_states_t, ensemble_result_t, ensemble_sink, &
         sorted_order, samples_failure
@@ -315,48 +316,14 @@ contains
     end function integer_field
 
     !> A finite decimal number: [sign] digits [. digits] [(e|E|d|D) [sign] digits] with at
-    !! least one mantissa digit and nothing else (so NaN and Inf are refused).
+    !! least one mantissa digit and nothing else (so NaN and Inf are refused), and a
+    !! magnitude in the range of every number holosym reads (`read_decimal`).
     logical function decimal_field(text, value) result(ok)
         character(len=*), intent(in) :: text
         real(wp), intent(out) :: value
-        integer :: i, mantissa, exponent, ios
-        value = 0
-        ok = .false.
-        i = 1
-        call skip_sign()
-        mantissa = count_digits()
-        if (i <= len(text)) then
-            if (text(i:i) == ".") then
-                i = i + 1
-                mantissa = mantissa + count_digits()
-            end if
-        end if
-        if (mantissa == 0) return
-        if (i <= len(text)) then
-            if (scan(text(i:i), "eEdD") == 0) return
-            i = i + 1
-            call skip_sign()
-            exponent = count_digits()
-            if (exponent == 0) return
-        end if
-        if (i <= len(text)) return
-        read (text, *, iostat=ios) value
-        ok = ios == 0
-        if (ok) ok = is_finite(value)
-    contains
-        subroutine skip_sign()
-            if (i <= len(text)) then
-                if (text(i:i) == "+" .or. text(i:i) == "-") i = i + 1
-            end if
-        end subroutine skip_sign
-        integer function count_digits()
-            count_digits = 0
-            do while (i <= len(text))
-                if (verify(text(i:i), "0123456789") /= 0) exit
-                count_digits = count_digits + 1
-                i = i + 1
-            end do
-        end function count_digits
+        integer :: outcome
+        call read_decimal(text, value, outcome)
+        ok = outcome == number_ok
     end function decimal_field
 
     !> Append `separator` and a real as a CSV field (36 significant digits, no blanks) to

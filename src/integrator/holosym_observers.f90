@@ -29,7 +29,7 @@ module holosym_observers
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, int_len, real_str, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, int_len, real_str, &
         is_finite, HOLOSYM_SUCCESS, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_NONFINITE_VALUE, HOLOSYM_NOT_INITIALIZED, &
         HOLOSYM_USER_ABORT

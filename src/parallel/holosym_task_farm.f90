@@ -13,7 +13,7 @@
 !! Results depend only on the task number, never on which worker ran it or when: that is
 !! what makes the output of every farm identical.
 module holosym_task_farm
-    use holosym_status, only: holosym_status_t, set_status, int_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_USER_ABORT, HOLOSYM_INVALID_ARGUMENT
     implicit none
     private

@@ -14,7 +14,7 @@
 !! The result passes the integrator's start test. On failure q and p are unchanged.
 module holosym_initial_states
     use holosym_kinds, only: wp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, &
         HOLOSYM_NEWTON_NOT_CONVERGED

@@ -7,7 +7,7 @@ module holosym_manifold
     use holosym_kinds, only: wp
     use holosym_problem, only: constrained_hamiltonian
     use holosym_linalg, only: lu_factor
-    use holosym_status, only: int_str, real_str, is_finite
+    use holosym_status_codes, only: int_str, real_str, is_finite
     implicit none
     private
 

@@ -15,7 +15,7 @@
 !! the Newton matrix is then banded with a band independent of the chain's length.
 module holosym_reduced_layout
     use, intrinsic :: iso_fortran_env, only: int64
-    use holosym_status, only: holosym_status_t, set_status, int_str, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_INVALID_DIMENSION
     implicit none
     private

@@ -24,7 +24,7 @@
 module holosym_reduced_scheme
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_NEWTON_DIVERGED
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto

@@ -16,7 +16,7 @@
 module holosym_scheme
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp
-    use holosym_status, only: holosym_status_t, set_status, int_str, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_NEWTON_DIVERGED
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto

@@ -29,7 +29,7 @@ module holosym_newton
     use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
         lu_solve_dp, default_pivot_tolerance_dp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SINGULAR_MATRIX, &
         HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE
     implicit none

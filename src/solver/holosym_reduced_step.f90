@@ -8,7 +8,7 @@
 !! then updated to first order through the difference matrix of p_b - p_a.
 module holosym_reduced_step
     use holosym_kinds, only: wp, dp, wp_is_double
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, &
         HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE
     use holosym_problem, only: constrained_hamiltonian

@@ -41,7 +41,7 @@ import mpmath  # noqa: E402
 from mpmath import mp, mpf  # noqa: E402
 
 from model_reference import (DIGITS, MACRO_STEPS, SPAN, Model, dot, reference,  # noqa: E402
-                             vec, write_reference)
+                             metric_gram, vec, write_reference)
 
 
 def diagonal(values):
@@ -203,14 +203,10 @@ def project(model, q, p):
     n, m = model.n, model.m
     jac = model.phi_jac(q)
     hpp = model.h_pp(q, p)
-    matrix = mpmath.matrix(m, m)
     rhs = mpmath.matrix(m, 1)
     for a in range(m):
-        hpp_phia = [dot(hpp[i], jac[a]) for i in range(n)]
-        for b in range(m):
-            matrix[b, a] = dot(jac[b], hpp_phia)
         rhs[a] = dot(jac[a], [dot(hpp[i], p) for i in range(n)])
-    beta = mpmath.lu_solve(matrix, rhs)
+    beta = mpmath.lu_solve(metric_gram(jac, hpp), rhs)
     return [p[i] - mpmath.fsum(jac[a][i] * beta[a] for a in range(m)) for i in range(n)]
 
 

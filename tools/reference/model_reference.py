@@ -55,6 +55,17 @@ def to_binary128(x):
         return +mpf(x)
 
 
+def metric_gram(jac, hpp):
+    """Phi H_pp Phi^T, the constraints' Gram matrix in the kinetic metric."""
+    m, n = len(jac), len(hpp)
+    matrix = mpmath.matrix(m, m)
+    for a in range(m):
+        hpp_phia = [dot(hpp[i], jac[a]) for i in range(n)]
+        for b in range(m):
+            matrix[b, a] = dot(jac[b], hpp_phia)
+    return matrix
+
+
 class Model:
     """A model: n, m, H, its derivatives and the constraints, written in plain formulas."""
     name = ""
@@ -70,14 +81,10 @@ class Model:
         curv = self.phi_curvature(q, v)
         hpq_v = [dot(hpq[i], v) for i in range(n)]
         hpp_hq = [dot(hpp[i], hq) for i in range(n)]
-        matrix = mpmath.matrix(m, m)
         rhs = mpmath.matrix(m, 1)
         for a in range(m):
-            hpp_phia = [dot(hpp[i], jac[a]) for i in range(n)]
-            for b in range(m):
-                matrix[b, a] = dot(jac[b], hpp_phia)
             rhs[a] = curv[a] + dot(jac[a], hpq_v) - dot(jac[a], hpp_hq)
-        lam = mpmath.lu_solve(matrix, rhs)
+        lam = mpmath.lu_solve(metric_gram(jac, hpp), rhs)
         force = [-hq[i] - mpmath.fsum(jac[a][i] * lam[a] for a in range(m)) for i in range(n)]
         return v, force
 

@@ -22,11 +22,11 @@
 module holosym_expression
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
-    use holosym_status, only: is_finite
+    use holosym_status_codes, only: is_finite
     implicit none
     private
 
-    public :: expression_graph_t, operation_name, failure_text
+    public :: expression_graph_t, operation_name, failure_text, locate_sorted
 
     !> Operation codes of the nodes (leaves first).
     integer, parameter, public :: op_constant = 1, op_variable = 2, op_parameter = 3, &

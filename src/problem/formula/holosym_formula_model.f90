@@ -22,7 +22,7 @@
 module holosym_formula_model
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp
-    use holosym_status, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_MODEL, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_SIZE_MISMATCH
     use holosym_text_file, only: text_line_t, read_text_lines
@@ -33,7 +33,7 @@ module holosym_formula_model
     use holosym_initial_states, only: state_from_velocities
     use holosym_expression, only: expression_graph_t, node_zero, operation_name, &
         failure_text, op_constant
-    use holosym_tape, only: tape_t
+    use holosym_tape, only: tape_t, rounded
     use holosym_model_parser, only: model_definition_t, name_t, parse_model, split_text
     implicit none
     private
@@ -226,19 +226,6 @@ contains
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine evaluate_parameters
 
-    !> Values rounded to real64 (beyond its range: the largest real64 of the sign).
-    pure function rounded(values) result(out)
-        real(wp), intent(in) :: values(:)
-        real(dp) :: out(size(values))
-        integer :: k
-        do k = 1, size(values)
-            if (abs(values(k)) > huge(1.0_dp)) then
-                out(k) = sign(huge(1.0_dp), real(sign(1.0_wp, values(k)), dp))
-            else
-                out(k) = real(values(k), dp)
-            end if
-        end do
-    end function rounded
 
     ! ------------------------------------------------------------------ derivation
 
@@ -651,11 +638,7 @@ contains
             p = p0
         end if
         if (present(note)) note = done
-        if (present(status)) then
-            status = local
-        else if (.not. local%ok()) then
-            error stop local%message
-        end if
+        call report(local, status)
     end subroutine model_initial_state
 
     !> Residuals of positions q and velocities v: max |phi(q)| and max |Phi(q) v|, and
@@ -717,11 +700,7 @@ contains
                 local%code = HOLOSYM_INVALID_ARGUMENT
             end if
         end if
-        if (present(status)) then
-            status = local
-        else if (.not. local%ok()) then
-            error stop local%message
-        end if
+        call report(local, status)
     end subroutine model_set_parameter
 
     !> The value of parameter `name`. Codes: HOLOSYM_INVALID_ARGUMENT (no such parameter;
@@ -742,11 +721,7 @@ contains
             value = self%values(k)
             call set_status(local, HOLOSYM_SUCCESS, "")
         end if
-        if (present(status)) then
-            status = local
-        else if (.not. local%ok()) then
-            error stop local%message
-        end if
+        call report(local, status)
     end subroutine model_get_parameter
 
     !> Index of parameter `name`, 0 if none.

@@ -23,9 +23,9 @@
 !! the same number of variables.
 module holosym_model_parser
     use holosym_kinds, only: wp
-    use holosym_status, only: int_str
+    use holosym_status_codes, only: int_str
     use holosym_decimal, only: read_decimal, number_ok, number_out_of_range
-    use holosym_text_file, only: text_line_t, max_text_line_length
+    use holosym_text_file, only: text_line_t, max_text_line_length, control_position
     use holosym_expression, only: expression_graph_t, node_zero, op_negate, op_add, &
         op_subtract, op_multiply, op_divide, op_power, op_sqrt, op_exp, op_log, op_sin, &
         op_cos, op_tan, op_atan, op_sinh, op_cosh, op_tanh, op_asin, op_acos, op_atan2
@@ -200,7 +200,7 @@ contains
             end if
             last = index(text, "#") - 1
             if (last < 0) last = len(text)
-            bad = control_character(text(:last))
+            bad = control_position(text(:last))
             if (bad > 0) then
                 call fail_at(parser, k, bad, "not text: control character " // &
                     int_str(iachar(text(bad:bad))) // " (a model file is plain text)")
@@ -250,25 +250,12 @@ contains
         statement%column = [statement%column, (k, k = 1, len(text))]
     end subroutine append
 
-    !> Position of the first control character (other than a tab), 0 if none.
-    pure integer function control_character(text) result(position)
-        character(len=*), intent(in) :: text
-        integer :: k, code
-        position = 0
-        do k = 1, len(text)
-            code = iachar(text(k:k))
-            if ((code < 32 .and. code /= 9) .or. code == 127) then
-                position = k
-                return
-            end if
-        end do
-    end function control_character
 
     !> Parse the current statement into the model.
     subroutine parse_statement(parser, model)
         type(parser_t), intent(inout) :: parser
         type(model_definition_t), intent(inout) :: model
-        character(len=:), allocatable :: keyword
+        character(len=:), allocatable :: keyword, written
         parser%position = 1
         parser%depth = 0
         call next_token(parser)
@@ -277,7 +264,8 @@ contains
             call fail_token(parser, "expected a statement (" // keyword_list() // ")")
             return
         end if
-        keyword = token_text(parser)
+        written = token_text(parser)
+        keyword = lower(written)
         call next_token(parser)
         if (parser%failed) return
         select case (keyword)
@@ -298,10 +286,21 @@ contains
         case ("velocity", "velocities")
             call parse_initial(parser, model, .true.)
         case default
-            call fail_at_statement(parser, "unknown statement '" // keyword // &
+            call fail_at_statement(parser, "unknown statement '" // written // &
                 "'" // suggestion(keyword, keywords) // "; expected " // keyword_list())
         end select
     end subroutine parse_statement
+
+    !> Text in lower case (keywords are read in any case).
+    pure function lower(text) result(out)
+        character(len=*), intent(in) :: text
+        character(len=len(text)) :: out
+        integer :: k
+        out = text
+        do k = 1, len(text)
+            if (text(k:k) >= "A" .and. text(k:k) <= "Z") out(k:k) = achar(iachar(text(k:k)) + 32)
+        end do
+    end function lower
 
     !> The keywords as a message lists them.
     pure function keyword_list() result(text)
@@ -659,36 +658,25 @@ contains
     recursive integer function parse_expression(parser, model) result(node)
         type(parser_t), intent(inout) :: parser
         type(model_definition_t), intent(inout) :: model
-        integer :: op, right, line, column
-        node = parse_term(parser, model)
-        do while (.not. parser%failed)
-            if (is_symbol(parser, "+")) then
-                op = op_add
-            else if (is_symbol(parser, "-")) then
-                op = op_subtract
-            else
-                exit
-            end if
-            call token_position(parser, line, column)
-            call next_token(parser)
-            if (parser%failed) return
-            right = parse_term(parser, model)
-            if (parser%failed) return
-            node = model%graph%binary(op, node, right)
-            call model%graph%locate(node, line, column)
-        end do
+        node = parse_chain(parser, model, additive=.true.)
     end function parse_expression
 
-    !> term = factor { ("*" | "/") factor }
-    recursive integer function parse_term(parser, model) result(node)
+    !> A left-associative chain of one precedence level: terms joined by + and -
+    !! (`additive`), or factors joined by * and /.
+    recursive integer function parse_chain(parser, model, additive) result(node)
         type(parser_t), intent(inout) :: parser
         type(model_definition_t), intent(inout) :: model
+        logical, intent(in) :: additive
         integer :: op, right, line, column
-        node = parse_factor(parser, model)
+        node = operand()
         do while (.not. parser%failed)
-            if (is_symbol(parser, "*")) then
+            if (additive .and. is_symbol(parser, "+")) then
+                op = op_add
+            else if (additive .and. is_symbol(parser, "-")) then
+                op = op_subtract
+            else if (.not. additive .and. is_symbol(parser, "*")) then
                 op = op_multiply
-            else if (is_symbol(parser, "/")) then
+            else if (.not. additive .and. is_symbol(parser, "/")) then
                 op = op_divide
             else
                 exit
@@ -696,12 +684,21 @@ contains
             call token_position(parser, line, column)
             call next_token(parser)
             if (parser%failed) return
-            right = parse_factor(parser, model)
+            right = operand()
             if (parser%failed) return
             node = model%graph%binary(op, node, right)
             call model%graph%locate(node, line, column)
         end do
-    end function parse_term
+    contains
+        !> term = factor { ("*" | "/") factor }, or a factor.
+        recursive integer function operand()
+            if (additive) then
+                operand = parse_chain(parser, model, additive=.false.)
+            else
+                operand = parse_factor(parser, model)
+            end if
+        end function operand
+    end function parse_chain
 
     !> factor = ("-" | "+") factor | primary [ ("^" | "**") factor ]
     recursive integer function parse_factor(parser, model) result(node)
@@ -938,7 +935,7 @@ contains
             parser%position = 1
             call next_token(parser)
             if (parser%token /= tk_name) cycle
-            keyword = token_text(parser)
+            keyword = lower(token_text(parser))
             lists = keyword == "coordinates" .or. keyword == "momenta"
             if (.not. (lists .or. keyword == "let" .or. keyword == "parameters" .or. &
                        keyword == "parameter")) cycle

@@ -15,13 +15,13 @@
 module holosym_tape
     use holosym_kinds, only: wp, dp
     use holosym_expression, only: expression_graph_t, op_constant, op_variable, op_parameter, &
-        op_power_int
+        op_power_int, locate_sorted
     use holosym_tape_kernels_wp, only: run_tape_wp, header_length
     use holosym_tape_kernels_dp, only: run_tape_dp
     implicit none
     private
 
-    public :: tape_t
+    public :: tape_t, rounded
 
     !> Slots of a tape evaluated in a fixed-size local array (larger tapes allocate one).
     integer, parameter :: small_tape = 512
@@ -104,31 +104,15 @@ contains
             s = s + 1
             slot(k) = self%first + s - 1
             self%code(at + 1) = graph%op(node)
-            self%code(at + 2) = slot(position(graph%left(node)))
+            self%code(at + 2) = slot(locate_sorted(nodes, graph%left(node)))
             self%code(at + 3) = graph%right(node)
             if (graph%right(node) > 0 .and. graph%op(node) /= op_power_int) &
-                self%code(at + 3) = slot(position(graph%right(node)))
+                self%code(at + 3) = slot(locate_sorted(nodes, graph%right(node)))
             at = at + 3
         end do
         do k = 1, size(roots)
-            self%code(at + k) = slot(position(roots(k)))
+            self%code(at + k) = slot(locate_sorted(nodes, roots(k)))
         end do
-    contains
-        integer function position(target)
-            integer, intent(in) :: target
-            integer :: low, high, middle
-            low = 1
-            high = size(nodes)
-            do while (low < high)
-                middle = (low + high) / 2
-                if (nodes(middle) < target) then
-                    low = middle + 1
-                else
-                    high = middle
-                end if
-            end do
-            position = low
-        end function position
     end subroutine tape_build
 
     !> Slots of the leaves among `nodes`: coordinates 1..nq, momenta, parameters, constants.
@@ -161,7 +145,8 @@ contains
         end do
     end subroutine number_leaves
 
-    !> Constants rounded to real64 (beyond its range: the largest real64 of the sign).
+    !> Values rounded to real64 (beyond its range: the largest real64 of the sign, so that
+    !! the conversion raises no overflow).
     pure function rounded(values) result(out)
         real(wp), intent(in) :: values(:)
         real(dp) :: out(size(values))

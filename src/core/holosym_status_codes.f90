@@ -3,10 +3,10 @@
 !!
 !! Convention: 0 is success, a negative code is invalid input (or a user abort),
 !! a positive code is a numerical failure. Every public entry point takes an optional
-!! `type(holosym_status), intent(out) :: status`; when it is absent and the call fails,
+!! `type(holosym_status_t), intent(out) :: status`; when it is absent and the call fails,
 !! the program stops with the message (`error stop`). docs/status-codes.md lists every
 !! code with where it is returned, and every limit.
-module holosym_status
+module holosym_status_codes
     ! The finiteness tests are IEEE classifications, which never raise an exception (an
     ! ordered comparison with a NaN raises 'invalid', which traps under -ffpe-trap=invalid).
     ! Used here, at module level, they add no per-call floating-point state handling.
@@ -189,4 +189,4 @@ contains
         text = real_field(value)
     end function real_str
 
-end module holosym_status
+end module holosym_status_codes
