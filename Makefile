@@ -178,8 +178,10 @@ bench-quick: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- bench --scaling --quick --out build/bench-quick
 	$(FPM) run $(FPM_FLAGS) -- bench --long --quick --out build/bench-quick \
 		--heyoka $(BENCH_PYTHON)
-	$(MAKE) bench-models-data BENCH_DIR=build/bench-quick MODEL_CHAINS="8 16 64" \
-		MODELS_ARGS=--quick
+	mkdir -p build/bench-quick/models
+	for k in 8 16 64; do \
+		$(PYTHON) tools/chain_model.py $$k build/bench-quick/models/chain$$k.hsm || exit 1; done
+	$(FPM) run $(FPM_FLAGS) -- bench --models --quick --out build/bench-quick
 	$(FPM) run $(FPM_FLAGS) -- bench --summarize build/bench-quick > /dev/null
 	BENCH_VENV=$(BENCH_VENV) ./tools/plot_bench.sh build/bench-quick
 
