@@ -131,10 +131,11 @@ bench: deps include-digest
 	$(MAKE) bench-models-data
 	$(MAKE) bench-report
 
-# Model files against the built-in models (pendulum, linkage, chain of 64) and chains of
-# K = 8 .. 256 links from model files written by tools/chain_model.py, in both builds
-# (a few minutes), into $(BENCH_DIR); bench-models then rewrites that section of
-# docs/performance.md alone (make bench rewrites the whole page).
+# Model files against the built-in models (pendulum, linkage, chain of 64: CPU time in
+# alternation, and instructions per step under callgrind through `holosym simulate`) and
+# chains of K = 8 .. 256 links from model files written by tools/chain_model.py, in both
+# builds (about ten minutes), into $(BENCH_DIR); bench-models then rewrites that section
+# of docs/performance.md alone (make bench rewrites the whole page).
 MODEL_CHAINS ?= 8 16 32 64 128 256
 MODELS_ARGS ?=
 bench-models-data: deps include-digest
@@ -143,6 +144,10 @@ bench-models-data: deps include-digest
 		$(PYTHON) tools/chain_model.py $$k $(BENCH_DIR)/models/chain$$k.hsm || exit 1; done
 	$(FPM) run $(FPM_FLAGS) -- bench --models --out $(BENCH_DIR) $(MODELS_ARGS)
 	$(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) -- bench --models --out $(BENCH_DIR) $(MODELS_ARGS)
+	./tools/model_instructions.sh "$$($(FPM) run $(FPM_FLAGS) --runner echo | tail -n 1)" \
+		$(BENCH_DIR)
+	./tools/model_instructions.sh \
+		"$$($(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) --runner echo | tail -n 1)" $(BENCH_DIR)
 
 bench-models: bench-models-data
 	$(FPM) run $(FPM_FLAGS) -- bench --models-section $(BENCH_DIR) > $(BENCH_DIR)/models.md

@@ -27,11 +27,19 @@ module holosym_bench_models
     implicit none
     private
 
-    public :: run_models, models_header, model_scaling_header, model_scaling_links
+    public :: run_models, models_header, model_scaling_header, model_scaling_links, &
+        model_instructions_header, model_scaling_instructions_header
 
     !> Header of DIR/models.csv (models64.csv).
     character(len=*), parameter :: models_header = "precision,model,M,N,G,h,steps," // &
         "builtin_seconds_per_step,model_seconds_per_step,ratio,difference,status"
+    !> Header of DIR/model_instructions.csv (model_instructions64.csv), written by
+    !! tools/model_instructions.sh (callgrind through `holosym simulate`).
+    character(len=*), parameter :: model_instructions_header = "precision,model,M,N,G,h," &
+        // "steps,builtin_instructions_per_step,model_instructions_per_step,ratio"
+    !> Header of DIR/model_scaling_instructions.csv (and 64), by the same script.
+    character(len=*), parameter :: model_scaling_instructions_header = &
+        "precision,path,links,steps,instructions_per_step"
     !> Header of DIR/model_scaling.csv (model_scaling64.csv).
     character(len=*), parameter :: model_scaling_header = "precision,path,links,n,m," // &
         "steps,seconds_per_step,load_seconds,status"

@@ -18,8 +18,10 @@ module holosym_manifold
     !! evaluating phi and Phi H_p with a few hundred operations.
     real(wp), parameter, public :: manifold_tolerance_default = 1024 * epsilon(1.0_wp)
     !> Entries of Phi beyond which `manifold_residuals` takes the system's declared sparsity
-    !! (when it has one) instead of forming the m x n matrix.
-    integer(int64), parameter :: dense_entries_limit = 65536
+    !! (when it has one) instead of forming the m x n matrix: below, forming Phi costs less
+    !! than the pattern's bookkeeping; above, the pattern keeps the cost linear in the size
+    !! of a chain-like system (the command line evaluates these residuals after every step).
+    integer(int64), parameter :: dense_entries_limit = 1024
 
 contains
 
@@ -30,7 +32,7 @@ contains
     !! beyond the default integer) and the system declares no sparsity. A system with more
     !! than `dense_entries_limit` entries of Phi and a declared sparsity is evaluated on
     !! its pattern (`sparse_manifold_residuals`): a chain of 10^5 links needs no
-    !! 10^5 x 2 10^5 matrix.
+    !! 10^5 x 2 10^5 matrix, and a chain of 64 no 64 x 128 one.
     subroutine manifold_residuals(sys, q, p, position, velocity, scaled_position, &
                                   scaled_velocity, velocity_field)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
