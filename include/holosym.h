@@ -43,6 +43,7 @@ typedef __float128 holosym_real;
 #define HOLOSYM_NOT_INITIALIZED (-8)            /* NULL handle, failed create, no step yet */
 #define HOLOSYM_INVALID_ARGUMENT (-9)           /* NULL callback, NaN input, tau not in [0,1] */
 #define HOLOSYM_INVALID_MODEL (-10)             /* model text refused: "model:LINE:COLUMN: ..." */
+#define HOLOSYM_INCONSISTENT_SYSTEM (-11)       /* callbacks disagree (e.g. Phi with phi) */
 #define HOLOSYM_SINGULAR_MATRIX 1
 #define HOLOSYM_NEWTON_NOT_CONVERGED 2
 #define HOLOSYM_NEWTON_DIVERGED 3

@@ -28,6 +28,9 @@
 !! - [[formula_model]], [[load_model]], [[model_from_text]]: a system given by formulas
 !!   in a model file, differentiated, structured and compiled by holosym; parameters set
 !!   by name, the initial state it states (docs/models.md).
+!! - [[check_system]], [[system_check_report_t]], [[check_entry_t]]: a system's
+!!   procedures and declarations compared with each other at a state (the integrator runs
+!!   it at the first start; docs/user_system.md).
 !! - [[state_from_velocities]]: a state on the manifold from positions and velocities.
 !! - [[newton_settings_t]], [[newton_report_t]]: the Newton settings of an integrator
 !!   (`integ%newton`) and what one solve did; [[nonlinear_system]], [[newton_solve]],
@@ -69,7 +72,8 @@
 !! - `HOLOSYM_SUCCESS`, `HOLOSYM_INVALID_ORDER`, `HOLOSYM_INVALID_DIMENSION`,
 !!   `HOLOSYM_SIZE_MISMATCH`, `HOLOSYM_INVALID_STEP_SIZE`, `HOLOSYM_INVALID_STEP_COUNT`,
 !!   `HOLOSYM_OFF_MANIFOLD`, `HOLOSYM_USER_ABORT`, `HOLOSYM_NOT_INITIALIZED`,
-!!   `HOLOSYM_INVALID_ARGUMENT`, `HOLOSYM_INVALID_MODEL`, `HOLOSYM_SINGULAR_MATRIX`,
+!!   `HOLOSYM_INVALID_ARGUMENT`, `HOLOSYM_INVALID_MODEL`, `HOLOSYM_INCONSISTENT_SYSTEM`,
+!!   `HOLOSYM_SINGULAR_MATRIX`,
 !!   `HOLOSYM_NEWTON_NOT_CONVERGED`, `HOLOSYM_NEWTON_DIVERGED`, `HOLOSYM_NONFINITE_VALUE`,
 !!   `HOLOSYM_RANK_DEFICIENT_CONSTRAINTS`, `HOLOSYM_STEP_TOO_LARGE`,
 !!   `HOLOSYM_STEP_TOO_SMALL`: the status codes (0 success, negative invalid input,
@@ -81,9 +85,9 @@ module holosym
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
-        HOLOSYM_INVALID_MODEL, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, &
-        HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
-        HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
+        HOLOSYM_INVALID_MODEL, HOLOSYM_INCONSISTENT_SYSTEM, HOLOSYM_SINGULAR_MATRIX, &
+        HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE, &
+        HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_derivatives, lagrange_matrices
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
@@ -96,6 +100,7 @@ module holosym
         projection_max_iterations_default
     use holosym_initial_states, only: state_from_velocities
     use holosym_formula_model, only: formula_model, load_model, model_from_text
+    use holosym_system_check, only: check_system, system_check_report_t, check_entry_t
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
     use holosym_model_chain, only: pendulum_chain
     use holosym_model_dumbbell, only: sphere_dumbbell
@@ -130,9 +135,10 @@ module holosym
     public :: HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, &
         HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, &
         HOLOSYM_OFF_MANIFOLD, HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, &
-        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_INVALID_MODEL, HOLOSYM_SINGULAR_MATRIX, &
-        HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE, &
-        HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
+        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_INVALID_MODEL, HOLOSYM_INCONSISTENT_SYSTEM, &
+        HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
+        HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, &
+        HOLOSYM_STEP_TOO_SMALL
     ! Basis: quadrature on [0, 1] and Lagrange polynomials.
     public :: gauss_legendre, gauss_lobatto
     public :: lagrange_values, lagrange_derivatives, lagrange_matrices
@@ -146,6 +152,8 @@ module holosym
     public :: state_from_velocities
     ! A system from formulas: the model file, read, differentiated and compiled.
     public :: formula_model, load_model, model_from_text
+    ! A system's procedures and declarations checked against each other.
+    public :: check_system, system_check_report_t, check_entry_t
     public :: spherical_pendulum, spring_linkage, planar_pendulum, pendulum_chain
     public :: sphere_dumbbell, magnetic_sphere, generic_pendulum
     ! Solvers: dense LU (working precision; real64 through LAPACK) and Newton's method on

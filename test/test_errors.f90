@@ -60,6 +60,7 @@ module test_errors
     contains
         procedure :: constraint => doubled_constraint
         procedure :: constraint_jacobian => doubled_constraint_jacobian
+        procedure :: constraint_hessian => doubled_constraint_hessian
     end type doubled_pendulum
 
     !> Records the steps it sees and halts after step `halt_at`.
@@ -237,6 +238,18 @@ contains
         jacobian(1, :) = 2 * q
         jacobian(2, :) = 2 * q
     end subroutine doubled_constraint_jacobian
+
+    !> Both constraints' second derivatives: 2 I each.
+    subroutine doubled_constraint_hessian(self, q, hessian)
+        class(doubled_pendulum), intent(in) :: self !! the system
+        real(wp), intent(in) :: q(:)              !! coordinates
+        real(wp), intent(out) :: hessian(:, :, :) !! n x n x 2
+        integer :: i
+        hessian = 0
+        do i = 1, size(q)
+            hessian(i, i, :) = 2
+        end do
+    end subroutine doubled_constraint_hessian
 
     !> Count the call; at step `halt_at` record the state and halt.
     subroutine halting_observe(self, step, t, q, p, info, halt)

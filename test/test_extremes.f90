@@ -18,7 +18,8 @@ module test_extremes
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
-        HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
+        HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL, HOLOSYM_INVALID_MODEL, &
+        HOLOSYM_INCONSISTENT_SYSTEM
     use holosym_status_codes, only: int_str, real_str
     use holosym_newton, only: newton_solve
     use holosym_scheme, only: discrete_scheme
@@ -56,7 +57,8 @@ module test_extremes
         HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, HOLOSYM_USER_ABORT, &
         HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SINGULAR_MATRIX, &
         HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE, &
-        HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL]
+        HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL, &
+        HOLOSYM_INVALID_MODEL, HOLOSYM_INCONSISTENT_SYSTEM]
 
     !> Park-Miller minimal standard generator: deterministic on every compiler, no overflow
     !! in 64-bit integers.
@@ -98,6 +100,7 @@ module test_extremes
     contains
         procedure :: constraint => twice_constraint
         procedure :: constraint_jacobian => twice_constraint_jacobian
+        procedure :: constraint_hessian => twice_constraint_hessian
     end type twice_sphere
 
     !> The pendulum whose dH/dq is NaN everywhere.
@@ -251,6 +254,18 @@ contains
         jacobian(1, :) = 2 * q
         jacobian(2, :) = 2 * q
     end subroutine twice_constraint_jacobian
+
+    !> Both constraints' second derivatives: 2 I each.
+    subroutine twice_constraint_hessian(self, q, hessian)
+        class(twice_sphere), intent(in) :: self !! the system
+        real(wp), intent(in) :: q(:)              !! coordinates
+        real(wp), intent(out) :: hessian(:, :, :) !! n x n x 2
+        integer :: i
+        hessian = 0
+        do i = 1, size(q)
+            hessian(i, i, :) = 2
+        end do
+    end subroutine twice_constraint_hessian
 
     !> NaN.
     subroutine nan_dh_dq(self, q, p, gradient)

@@ -44,6 +44,10 @@ module holosym_status_codes
     !> A model file (or model text) refused: a syntax or meaning error, or an initial
     !! state where the model cannot be evaluated; the message gives file:line:column.
     integer, parameter, public :: HOLOSYM_INVALID_MODEL = -10
+    !> A system whose procedures or declarations disagree with each other (`check_system`:
+    !! a gradient against differences of H, a declared mass against dh_dp, a declared
+    !! sparsity against the whole Jacobian, ...); the message names them and the entry.
+    integer, parameter, public :: HOLOSYM_INCONSISTENT_SYSTEM = -11
     !> The Newton Jacobian (or a matrix given to the LU) is singular to working precision.
     integer, parameter, public :: HOLOSYM_SINGULAR_MATRIX = 1
     !> Newton's method did not converge within its iteration limit.
@@ -115,6 +119,7 @@ contains
         case (HOLOSYM_NOT_INITIALIZED);            name = "integrator not initialized"
         case (HOLOSYM_INVALID_ARGUMENT);           name = "invalid argument"
         case (HOLOSYM_INVALID_MODEL);              name = "invalid model"
+        case (HOLOSYM_INCONSISTENT_SYSTEM);        name = "inconsistent system"
         case (HOLOSYM_SINGULAR_MATRIX);            name = "singular matrix"
         case (HOLOSYM_NEWTON_NOT_CONVERGED);       name = "Newton not converged"
         case (HOLOSYM_NEWTON_DIVERGED);            name = "Newton diverged"

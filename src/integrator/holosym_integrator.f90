@@ -61,6 +61,7 @@ module holosym_integrator
         full_rank_constraints, sparse_manifold_residuals, sparse_full_rank_constraints
     use holosym_reduced_step, only: reduced_step_t, reduced_report_t
     use holosym_reduced_scheme, only: reduced_structure
+    use holosym_system_check, only: check_system, system_check_report_t
     implicit none
     private
 
@@ -250,6 +251,16 @@ module holosym_integrator
         !! tried too); else it fails with HOLOSYM_STEP_TOO_LARGE. Costs one call of H per
         !! step.
         logical :: check_roots = .true.
+        !> Check the system's procedures and declarations against each other
+        !! (`check_system`: gradients against differences of H, Phi against differences of
+        !! phi, Hessians, a declared mass, declared sparsity patterns) at the first start
+        !! state after `init`; a system that fails is refused with
+        !! HOLOSYM_INCONSISTENT_SYSTEM naming the procedure and the entry. Costs a few
+        !! dozen evaluations of each procedure once (docs/user_system.md has the measured
+        !! cost); `.false.` skips it.
+        logical :: check_system = .true.
+        ! The check of the system has passed since `init`.
+        logical, private :: system_checked = .false.
         type(discrete_scheme), private :: scheme
         type(reduced_step_t), private :: reduced
         logical, private :: reduced_active = .false.
@@ -334,6 +345,7 @@ contains
         end if
         self%scheme = scheme
         self%ready = .true.
+        self%system_checked = .false.
         self%have_last = .false.
         if (allocated(self%last_info%lambda)) deallocate (self%last_info%lambda)
         allocate (self%last_info%lambda(sys%m, 0:M))
@@ -373,7 +385,7 @@ contains
 
     !> Check everything a step needs before touching the state.
     subroutine validate(self, sys, q, p, h, status)
-        class(constrained_integrator), intent(in) :: self
+        class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
@@ -414,6 +426,10 @@ contains
             tolerance = self%manifold_tolerance
             if (continuing) tolerance = max(tolerance, end_tolerance(self))
             if (.not. continuing) then
+                ! The system's own consistency first: a wrong declaration (a sparsity
+                ! pattern, a Jacobian) would make every later test report its effect.
+                call check_once(self, sys, q, p, status)
+                if (.not. status%ok()) return
                 if (.not. rank_test(self, sys, q, rank_message)) then
                     call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, rank_message)
                     return
@@ -447,6 +463,20 @@ contains
             end if
         end if
     end subroutine validate
+
+    !> The check of the system (`check_system` setting) at the first start state after
+    !! `init`: its failure is the call's.
+    subroutine check_once(self, sys, q, p, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:)
+        type(holosym_status_t), intent(out) :: status
+        type(system_check_report_t) :: report
+        call set_status(status, HOLOSYM_SUCCESS, "")
+        if (.not. self%check_system .or. self%system_checked) return
+        call check_system(sys, q, p, report, status)
+        if (status%ok()) self%system_checked = .true.
+    end subroutine check_once
 
     !> Whether every setting of the integrator is in its range; `message` names the first
     !! that is not: the Newton settings (`newton_settings_valid`), 0 < manifold_tolerance < 1
