@@ -18,6 +18,7 @@ module holosym_cli
     use holosym_cli_ensemble, only: ensemble_command
     use holosym_task_farm, only: task_farm
     use holosym_cli_figures, only: figures_command
+    use holosym_cli_check, only: check_command
     implicit none
     private
 
@@ -48,6 +49,7 @@ contains
             "  extremes   stability at the extremes: long runs, tiny/large steps, high orders", &
             "  ensemble   many trajectories in parallel (threads or MPI ranks), resumable", &
             "  figures    the data of the figures in docs/figures.md, as CSV", &
+            "  check      compare a system's procedures and declarations with each other", &
             "", &
             "Run 'holosym COMMAND --help' (or 'holosym help COMMAND') for a command's options.", &
             "'holosym --version' prints the version.", &
@@ -130,6 +132,8 @@ contains
             call bench_command(args, out, err_unit, exit_code)
         case ("extremes")
             call extremes_command(args, out, err_unit, exit_code)
+        case ("check")
+            call check_command(args, out, err_unit, exit_code)
         case ("ensemble")
             call ensemble_command(args, out, err_unit, exit_code, farm)
         case ("figures")

@@ -6,7 +6,7 @@
 !! leaves out a coupling, a wrong real64 gradient) instead of a wrong trajectory.
 module test_system_check
     use holosym_kinds, only: wp, dp
-    use holosym_status_codes, only: holosym_status_t, HOLOSYM_SUCCESS, &
+    use holosym_status_codes, only: holosym_status_t, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INCONSISTENT_SYSTEM
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator
@@ -16,6 +16,7 @@ module test_system_check
     use holosym_formula_model, only: formula_model, load_model
     use holosym_test_systems, only: builtin_system
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
+    use holosym_test_commands, only: command_result_t, run_holosym, any_line_contains
     implicit none
     private
     public :: system_check_tests
@@ -87,7 +88,8 @@ contains
             new_test("refuses_a_potential_pattern_that_leaves_out_a_coupling", &
                      short_potential), &
             new_test("refuses_a_wrong_real64_gradient", wrong_double), &
-            new_test("can_be_switched_off", switched_off)]
+            new_test("can_be_switched_off", switched_off), &
+            new_test("holosym_check_command", check_command_runs)]
     end function system_check_tests
 
     ! ---------------------------------------------------------------- wrong systems
@@ -327,5 +329,31 @@ contains
         call integ%step(sys, q, p, 0.125_wp, status=status)
         call check_status_code(error, status%code, HOLOSYM_SUCCESS, status%message)
     end subroutine switched_off
+
+    !> `holosym check` prints the table and the verdict for built-in systems and model
+    !! files (exit 0), and refuses bad usage (exit 2).
+    subroutine check_command_runs(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        character(len=48), parameter :: lines(*) = [character(len=48) :: &
+            "check --system dumbbell", "check --system chain --links 12", &
+            "check --model example/models/fourbar.hsm", &
+            "check --model example/models/water.hsm --set k=2"]
+        integer :: k
+        do k = 1, size(lines)
+            call run_holosym(trim(lines(k)), result)
+            call check(error, result%exit_code == 0 .and. any_line_contains(result%out, &
+                "Verdict: every comparison made passed.") .and. any_line_contains(result%out, &
+                "| constraint_jacobian and differences of constraint |"), trim(lines(k)) // &
+                ": exit " // int_str(result%exit_code))
+            if (allocated(error)) return
+        end do
+        call run_holosym("check --system pendulum --model example/models/water.hsm", result)
+        call check(error, result%exit_code == 2, "--system with --model: exit 2")
+        if (allocated(error)) return
+        call run_holosym("check --frobnicate", result)
+        call check(error, result%exit_code == 2 .and. any_line_contains(result%err, &
+            "unknown option '--frobnicate'"), "an unknown option: exit 2")
+    end subroutine check_command_runs
 
 end module test_system_check
