@@ -10,7 +10,7 @@ module test_hardening
         ieee_negative_inf, ieee_is_finite
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym, only: wp, holosym_status_t, constrained_hamiltonian, constrained_integrator, &
-        spherical_pendulum, planar_pendulum, pendulum_chain, newton_settings_t, &
+        spherical_pendulum, planar_pendulum, energy_monitor, pendulum_chain, newton_settings_t, &
         newton_report_t, newton_solve, nonlinear_system, project_to_manifold, rattle_integrator, &
         projection_report_t, unknown_count, max_order_m, max_order_n, max_gauss_points, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, &
@@ -65,6 +65,24 @@ module test_hardening
         procedure :: dh_dq => nan_dh_dq
     end type nan_pendulum
 
+    !> The spherical pendulum whose Hamiltonian is NaN everywhere (its gradients are right).
+    type, extends(spherical_pendulum) :: nan_energy_pendulum
+        !> Calls of `hamiltonian` (when associated); H is NaN from call `nan_from` on.
+        integer, pointer :: calls => null()
+        integer :: nan_from = 0
+    contains
+        procedure :: hamiltonian => nan_hamiltonian
+    end type nan_energy_pendulum
+
+    !> The spherical pendulum whose constraint counts its calls in `calls` and returns NaN
+    !! from call number `nan_from` on.
+    type, extends(spherical_pendulum) :: late_nan_pendulum
+        integer, pointer :: calls => null()
+        integer :: nan_from = huge(0)
+    contains
+        procedure :: constraint => late_nan_constraint
+    end type late_nan_pendulum
+
     !> A system with settable sizes that is never evaluated (sizes only).
     type, extends(constrained_hamiltonian) :: sized_system
         logical :: declares_mass = .false.
@@ -102,6 +120,8 @@ contains
             new_test("newton_solve_validates_its_settings", newton_settings_checked), &
             new_test("rattle_validates_settings_and_sizes", rattle_checked), &
             new_test("nan_inputs_never_raise_invalid", nan_inputs_never_trap), &
+            new_test("nan_energy_or_end_of_step_nan_is_code_4", nan_from_the_system), &
+            new_test("overflowing_energy_at_the_start_is_code_4", overflowing_energy), &
             new_test("tiny_steps_below_resolution", tiny_steps), &
             new_test("constraints_dependent_within_a_step", dependent_within_step), &
             new_test("absurd_step_sizes", absurd_steps), &
@@ -240,6 +260,35 @@ contains
         mass = 1
         declared = .true.
     end function axis_diagonal_mass
+
+    function nan_hamiltonian(self, q, p) result(energy)
+        class(nan_energy_pendulum), intent(in) :: self !! the system
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp) :: energy
+        integer :: call_number
+        call_number = huge(0)
+        if (associated(self%calls)) then
+            self%calls = self%calls + 1
+            call_number = self%calls
+        end if
+        if (call_number >= self%nan_from) then
+            energy = ieee_value(1.0_wp, ieee_quiet_nan)
+        else
+            energy = self%spherical_pendulum%hamiltonian(q, p)
+        end if
+    end function nan_hamiltonian
+
+    subroutine late_nan_constraint(self, q, phi)
+        class(late_nan_pendulum), intent(in) :: self !! the system
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: phi(:)
+        self%calls = self%calls + 1
+        if (self%calls >= self%nan_from) then
+            phi = ieee_value(1.0_wp, ieee_quiet_nan)
+        else
+            call self%spherical_pendulum%constraint(q, phi)
+        end if
+    end subroutine late_nan_constraint
 
     subroutine nan_dh_dq(self, q, p, gradient)
         class(nan_pendulum), intent(in) :: self !! the system
@@ -729,6 +778,138 @@ contains
         end subroutine one_step
 
     end subroutine nan_inputs_never_trap
+
+    !> A NaN from the system where the library evaluates it after Newton converged is
+    !! HOLOSYM_NONFINITE_VALUE, without a floating-point exception ('invalid' halting, as
+    !! in `nan_inputs_never_raise_invalid`), never a success: a Hamiltonian that is NaN
+    !! everywhere (its gradients right, so every step converges; the energy check of each
+    !! step evaluates H), and a constraint that turns NaN at its last call of a step, the
+    !! end-of-step residual at the displacement nodes. Both paths.
+    subroutine nan_from_the_system(error)
+        use, intrinsic :: ieee_exceptions, only: ieee_set_halting_mode, ieee_invalid, &
+            ieee_support_halting
+        type(test_error_t), allocatable, intent(out) :: error
+        type(nan_energy_pendulum), target :: no_energy
+        type(late_nan_pendulum), target :: late
+        type(constrained_integrator) :: integ
+        type(energy_monitor) :: monitor
+        type(holosym_status_t) :: status
+        real(wp) :: q0(3), p0(3), q(3), p(3)
+        integer, target :: calls
+        integer :: k, steps_done, per_step
+        logical :: structured
+        if (.not. ieee_support_halting(ieee_invalid)) then
+            call skip(error, "no halting on IEEE exceptions on this processor")
+            return
+        end if
+        no_energy%spherical_pendulum = spherical_pendulum()
+        late%spherical_pendulum = spherical_pendulum()
+        late%calls => calls
+        call no_energy%initial_state(q0, p0)
+        call ieee_set_halting_mode(ieee_invalid, .true.)
+        do k = 1, 2
+            structured = k == 1
+            integ = new_integrator()
+            integ%structured = structured
+            integ%check_system = .false.      ! the check would find the NaN H first
+            call integ%init(no_energy, 2, 1, 3, status)
+            q = q0
+            p = p0
+            call integ%integrate(no_energy, q, p, 0.125_wp, 20, steps_done=steps_done, &
+                status=status)
+            call check_status_code(error, status%code, HOLOSYM_NONFINITE_VALUE, &
+                "H NaN (" // path_name(structured) // ")")
+            if (allocated(error)) return
+            call check(error, steps_done == 0 .and. index(status%message, "hamiltonian") > 0, &
+                "H NaN: no step accepted, the message names hamiltonian (" // &
+                path_name(structured) // "): " // status%message)
+            if (allocated(error)) return
+            ! The calls of one step from a fresh start, then the same step with the last
+            ! of them NaN.
+            integ = new_integrator()
+            integ%structured = structured
+            integ%check_system = .false.
+            call integ%init(late, 2, 1, 3, status)
+            calls = 0
+            q = q0
+            p = p0
+            call integ%step(late, q, p, 0.125_wp, status=status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "late NaN: counting")
+            if (allocated(error)) return
+            per_step = calls
+            integ = new_integrator()
+            integ%structured = structured
+            integ%check_system = .false.
+            call integ%init(late, 2, 1, 3, status)
+            calls = 0
+            late%nan_from = per_step
+            q = q0
+            p = p0
+            call integ%step(late, q, p, 0.125_wp, status=status)
+            late%nan_from = huge(0)
+            call check_status_code(error, status%code, HOLOSYM_NONFINITE_VALUE, &
+                "constraint NaN at the end-of-step residual (" // path_name(structured) // ")")
+            if (allocated(error)) return
+            call check(error, all(q == q0) .and. all(p == p0), "state unchanged on failure")
+            if (allocated(error)) return
+        end do
+        ! With the root check off the integrator does not evaluate H; the monitor does, and
+        ! records an unbounded energy error, without a trap, when H turns NaN after a step.
+        no_energy%calls => calls
+        calls = 0
+        no_energy%nan_from = 3                ! the monitor's start, the first step, NaN
+        integ = new_integrator()
+        integ%check_system = .false.
+        integ%check_roots = .false.
+        call integ%init(no_energy, 2, 1, 3, status)
+        q = q0
+        p = p0
+        call monitor%start(no_energy, q, p, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "monitor start")
+        if (allocated(error)) return
+        call integ%integrate(no_energy, q, p, 0.125_wp, 4, observer=monitor, status=status)
+        call check(error, status%ok() .and. monitor%steps == 4 .and. &
+            .not. ieee_is_finite(monitor%max_energy_error), &
+            "H NaN after step 2, root check off: the monitor's energy error is not finite")
+    end subroutine nan_from_the_system
+
+    !> A start state whose energy overflows (|p| = huge**0.6, on the manifold) is
+    !! HOLOSYM_NONFINITE_VALUE naming the Hamiltonian, not a Newton code. Skipped where
+    !! overflow traps (the pendulum's own H overflows).
+    subroutine overflowing_energy(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum), target :: sys
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        real(wp) :: q0(3), p0(3), q(3), p(3), big
+        integer :: k
+        logical :: structured
+        if (overflow_traps()) then
+            call skip(error, "computes an overflow on purpose")
+            return
+        end if
+        sys = spherical_pendulum()
+        call sys%initial_state(q0, p0)
+        big = huge(1.0_wp)**0.6_wp
+        ! A tangent direction: q0 x e_z, scaled.
+        p0 = big * [q0(2), -q0(1), 0.0_wp] / norm2(q0(1:2))
+        do k = 1, 2
+            structured = k == 1
+            integ = new_integrator()
+            integ%structured = structured
+            integ%check_system = .false.      ! the check finds it too: the step's own test
+            call integ%init(sys, 2, 1, 3, status)
+            q = q0
+            p = p0
+            call integ%step(sys, q, p, 0.125_wp, status=status)
+            call check_status_code(error, status%code, HOLOSYM_NONFINITE_VALUE, &
+                "H overflows at the start (" // path_name(structured) // ")")
+            if (allocated(error)) return
+            call check(error, index(status%message, "hamiltonian") > 0, &
+                "the message names hamiltonian: " // status%message)
+            if (allocated(error)) return
+        end do
+    end subroutine overflowing_energy
 
     ! ------------------------------------------------------------------ 7: tiny steps
 

@@ -19,6 +19,7 @@
 module holosym_ensemble
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: iso_c_binding, only: c_int, c_long
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
@@ -484,8 +485,16 @@ contains
         type(step_info_t), intent(in) :: info !! diagnostics of the step
         logical, intent(inout) :: halt       !! not used
         real(wp) :: energy_error
-        energy_error = (self%sys%hamiltonian(q, p) - self%energy0) / self%energy_scale
-        self%max_energy_error = max(self%max_energy_error, abs(energy_error))
+        energy_error = self%sys%hamiltonian(q, p)
+        if (is_finite(energy_error)) then
+            energy_error = (energy_error - self%energy0) / self%energy_scale
+            self%max_energy_error = max(self%max_energy_error, abs(energy_error))
+        else
+            ! H returned NaN or Inf (possible only with check_roots off): unbounded, found
+            ! by classification (no comparison with a NaN).
+            energy_error = ieee_value(energy_error, ieee_positive_inf)
+            self%max_energy_error = energy_error
+        end if
         self%max_constraint_residual = max(self%max_constraint_residual, &
                                            info%constraint_residual)
         self%max_velocity_residual = max(self%max_velocity_residual, info%velocity_residual)

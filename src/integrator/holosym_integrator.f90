@@ -183,8 +183,10 @@ module holosym_integrator
         integer :: gradients = 0, hessians = 0
         real(wp) :: pivot_ratio = 0
         real(wp) :: velocity = 0          ! max |Phi H_p| at the end state
+        real(wp) :: position = 0          ! max |phi| over the displacement nodes
         real(wp) :: energy = 0            ! H at the end state (when `energy_known`)
         logical :: energy_known = .false.
+        logical :: energy_finite = .true. ! H finite at both ends (see `energy_change`)
         real(wp) :: energy_change = 0     ! see `energy_change`
         real(wp) :: momentum_jump = 0     ! see `momentum_jump`
     end type pending_t
@@ -664,6 +666,11 @@ contains
                 call verify_root(self, sys, q, p, h, status)
                 return
             end if
+            if (.not. self%pending%energy_finite) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, trim(step_label(self, h)) // &
+                    ": hamiltonian returned NaN or Inf at the start or the end of the step")
+                return
+            end if
         end if
         call commit_step(self, sys, q, p, h, .false.)
     end subroutine solve_step
@@ -709,19 +716,54 @@ contains
         character(len=:), allocatable :: reduced_message
         if (.not. self%reduced_active) then
             call solve_general(self, sys, q, p, h, extrapolation, status)
-            return
+        else
+            call solve_reduced(self, sys, q, p, h, extrapolation, status)
+            if (.not. (status%ok() .or. .not. self%general_ready .or. &
+                       status%code == HOLOSYM_NONFINITE_VALUE)) then
+                ! The reduced step factors its Newton matrix in real64 only: where that is
+                ! too ill-conditioned (nearly dependent constraints), the general step of a
+                ! small system has working-precision factors to fall back on (from the
+                ! constant guess).
+                reduced_message = status%message
+                call solve_general(self, sys, q, p, h, .false., status)
+                if (.not. status%ok()) &
+                    status%message = status%message // " (after the " // reduced_message // ")"
+            end if
         end if
-        call solve_reduced(self, sys, q, p, h, extrapolation, status)
-        if (status%ok() .or. .not. self%general_ready .or. &
-            status%code == HOLOSYM_NONFINITE_VALUE) return
-        ! The reduced step factors its Newton matrix in real64 only: where that is too
-        ! ill-conditioned (nearly dependent constraints), the general step of a small system
-        ! has working-precision factors to fall back on (from the constant guess).
-        reduced_message = status%message
-        call solve_general(self, sys, q, p, h, .false., status)
-        if (.not. status%ok()) &
-            status%message = status%message // " (after the " // reduced_message // ")"
+        if (status%ok()) call node_residual(self, sys, q, h, status)
     end subroutine attempt_step
+
+    !> max |phi| over the displacement nodes of the solved step, into `pending`; or
+    !! HOLOSYM_NONFINITE_VALUE when `constraint` returns NaN or Inf at one of them (found by
+    !! classification: no comparison with a NaN).
+    subroutine node_residual(self, sys, q, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), h
+        type(holosym_status_t), intent(inout) :: status
+        real(wp) :: phi(sys%m)
+        integer :: i
+        self%pending%position = 0
+        if (sys%m == 0) return
+        do i = 0, self%scheme%order_m
+            ! The node in p_end_work, free until `energy_change`.
+            if (self%pending%general) then
+                call self%scheme%solution_node(self%x_work, i, self%p_end_work)
+            else
+                self%p_end_work = q
+                if (i > 0) self%p_end_work = q + &
+                    self%reduced%x(self%reduced%scheme%layout%z_col(:, i))
+            end if
+            call sys%constraint(self%p_end_work, phi)
+            if (.not. all(is_finite(phi))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, trim(step_label(self, h)) // &
+                    ": constraint returned NaN or Inf at displacement node " // int_str(i) // &
+                    " of the solved step")
+                return
+            end if
+            self%pending%position = max(self%pending%position, maxval(abs(phi)))
+        end do
+    end subroutine node_residual
 
     !> Accept the step solved by the last attempt (or restored by `restore_candidate`):
     !! it becomes the last step (dense output, extrapolation, `last_step`). `rebind` binds
@@ -731,30 +773,18 @@ contains
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
         logical, intent(in) :: rebind
-        real(wp) :: max_phi
-        integer :: i
         if (self%pending%general) then
             if (rebind) call self%scheme%set_step(sys, q, p, h)
-            call self%scheme%node_values(self%x_work, self%last_info%lambda, max_phi)
+            call self%scheme%node_values(self%x_work, self%last_info%lambda)
             self%last_x = self%x_work
         else
             call self%reduced%accept(q, h)
             call self%reduced%scheme%multipliers(self%reduced%last_x, h, self%last_info%lambda)
-            max_phi = 0
-            if (sys%m > 0) then
-                do i = 0, self%scheme%order_m
-                    self%p_end_work = q
-                    if (i > 0) self%p_end_work = q + &
-                        self%reduced%last_x(self%reduced%scheme%layout%z_col(:, i))
-                    call sys%constraint(self%p_end_work, self%reduced%scheme%phi_work)
-                    max_phi = max(max_phi, maxval(abs(self%reduced%scheme%phi_work)))
-                end do
-            end if
         end if
         self%last_general = self%pending%general
         associate (info => self%last_info, pending => self%pending)
             info%newton_iterations = pending%iterations
-            info%constraint_residual = max_phi
+            info%constraint_residual = pending%position
             info%velocity_residual = pending%velocity
             info%pivot_ratio = pending%pivot_ratio
             info%lu_factorizations = pending%factorizations
@@ -778,7 +808,8 @@ contains
     !! (|H(q_a, p_a)| + |p_b . H_p(q_b, p_b)|) with q_b = q + dq_work, p_b = p + dp_work
     !! (H(q_a, p_a) from the last step when the state continues it; H_p(q_b, p_b) from
     !! the solve's end-state check, in hp_work). H(q_b, p_b) is kept for the next step.
-    !! 0 when a value is not finite (nothing to compare).
+    !! 0 when a value is not finite (nothing to compare; `pending%energy_finite` says
+    !! whether H was).
     function energy_change(self, sys, q, p) result(change)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in) :: sys
@@ -797,6 +828,7 @@ contains
         power = abs(sum(self%p_end_work * self%hp_work))
         self%pending%energy = finish
         self%pending%energy_known = is_finite(finish)
+        self%pending%energy_finite = is_finite(start) .and. is_finite(finish)
         change = 0
         if (.not. (is_finite(start) .and. is_finite(finish) .and. is_finite(power))) return
         if (abs(start) + power > 0) then
@@ -951,6 +983,8 @@ contains
     end subroutine restore_candidate
 
     !> Say why a step failed, where the solver's code alone would mislead:
+    !! HOLOSYM_NONFINITE_VALUE naming the Hamiltonian when H of the start state is not
+    !! finite (it overflows);
     !! HOLOSYM_STEP_TOO_SMALL when h is below the resolution of the state
     !! (`resolution_limit`); HOLOSYM_RANK_DEFICIENT_CONSTRAINTS when a singular Newton
     !! matrix comes from constraints dependent at the start or at a node of the iterate;
@@ -967,10 +1001,20 @@ contains
         integer :: code, k
 
         select case (status%code)
-        case (HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED)
+        case (HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
+              HOLOSYM_NONFINITE_VALUE)
         case default
             return
         end select
+        if (.not. is_finite(sys%hamiltonian(q, p))) then
+            ! A state beyond the range of the system's numbers (e.g. momenta whose energy
+            ! overflows): no step size helps.
+            status%code = HOLOSYM_NONFINITE_VALUE
+            status%message = trim(step_label(self, h)) // ": hamiltonian returned NaN or " // &
+                "Inf at the start state (" // status%message // ")"
+            return
+        end if
+        if (status%code == HOLOSYM_NONFINITE_VALUE) return
         limit = resolution_limit(self, sys, q, p)
         if (h < limit) then
             status%code = HOLOSYM_STEP_TOO_SMALL

@@ -27,7 +27,7 @@
 !! the caller's unit is written as it is.
 module holosym_observers
     use, intrinsic :: iso_fortran_env, only: int64
-    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_positive_inf
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, int_len, real_str, &
         is_finite, HOLOSYM_SUCCESS, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_ARGUMENT, &
@@ -183,7 +183,8 @@ contains
     end subroutine monitor_observe
 
     !> Count a step and update the maxima with its values: its energy, max |phi| over its
-    !! displacement nodes, |Phi H_p| at its end and its Newton iterations.
+    !! displacement nodes, |Phi H_p| at its end and its Newton iterations. A non-finite
+    !! energy makes `max_energy_error` +Inf.
     pure subroutine monitor_record(self, energy, position, velocity, iterations)
         class(energy_monitor), intent(inout) :: self
         real(wp), intent(in) :: energy     !! H after the step
@@ -191,8 +192,15 @@ contains
         real(wp), intent(in) :: velocity   !! max |Phi H_p| at the step's end
         integer, intent(in) :: iterations  !! Newton iterations of the step
         self%steps = self%steps + 1
-        self%max_energy_error = max(self%max_energy_error, &
-            abs((energy - self%initial_energy) / self%energy_scale))
+        if (is_finite(energy)) then
+            self%max_energy_error = max(self%max_energy_error, &
+                abs((energy - self%initial_energy) / self%energy_scale))
+        else
+            ! H returned NaN or Inf (a run with check_roots off, which would have stopped
+            ! with HOLOSYM_NONFINITE_VALUE): the error is unbounded, found by
+            ! classification (no comparison with a NaN).
+            self%max_energy_error = ieee_value(self%max_energy_error, ieee_positive_inf)
+        end if
         self%max_constraint_residual = max(self%max_constraint_residual, position)
         self%max_velocity_residual = max(self%max_velocity_residual, velocity)
         self%newton_iterations = self%newton_iterations + iterations

@@ -276,7 +276,10 @@ contains
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:), d(:, :)
         type(system_check_report_t), intent(inout) :: report
-        real(wp) :: jac(sys%m, sys%n), phi(sys%m), f(sys%m, 4), worst, h, row_miss(sys%m)
+        ! Phi allocated after the size test (an automatic m x n array would be on the stack
+        ! for every m and n, beyond it for a long chain).
+        real(wp), allocatable :: jac(:, :)
+        real(wp) :: phi(sys%m), f(sys%m, 4), worst, h, row_miss(sys%m)
         integer :: k, l, where
         if (int(sys%m, int64) * sys%n > dense_check_entries) then
             call add_entry(report, "constraint_jacobian and differences of constraint", &
@@ -284,6 +287,7 @@ contains
                 int_str(int(dense_check_entries)) // " entries")
             return
         end if
+        allocate (jac(sys%m, sys%n))
         call sys%constraint_jacobian(q, jac)
         call sys%constraint(q, phi)
         h = step_at(q)

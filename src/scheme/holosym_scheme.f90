@@ -186,8 +186,10 @@ module holosym_scheme
         procedure :: increments => scheme_increments
         !> Polynomials q~, p~, lambda~ of a solved step at tau.
         procedure :: dense => scheme_dense
-        !> Multipliers lambda_k at the displacement nodes and max |phi| over the nodes.
+        !> Multipliers lambda_k at the displacement nodes.
         procedure :: node_values => scheme_node_values
+        !> Displacement node q_i of a solution.
+        procedure :: solution_node => scheme_solution_node
         !> Displacement node q_i of the last evaluation (residual or Jacobian).
         procedure :: node => scheme_node
         !> Distance of the momentum polynomial's ends from the step's end momenta.
@@ -1170,22 +1172,26 @@ contains
         q = self%q_nodes(:, i)
     end subroutine scheme_node
 
-    !> Multipliers at the displacement nodes and the largest |phi(q_i)|, i = 0..M.
-    subroutine scheme_node_values(self, x, lambda, max_phi)
-        class(discrete_scheme), intent(inout) :: self
+    !> Multipliers at the displacement nodes, lambda_k = mu_k / h, k = 0..M.
+    subroutine scheme_node_values(self, x, lambda)
+        class(discrete_scheme), intent(in) :: self
         real(wp), intent(in) :: x(:)            !! solution of the step bound by set_step
         real(wp), intent(out) :: lambda(:, 0:)  !! m x (0:M) multipliers lambda_k
-        real(wp), intent(out) :: max_phi        !! max over nodes and components of |phi|
         integer :: i
-        max_phi = 0
         do i = 0, self%order_m
             lambda(:, i) = x(mu_at(self, i) + 1:mu_at(self, i) + self%m) / self%step%h
-            self%q_work = self%step%qa
-            if (i >= 1) self%q_work = self%q_work + x(z_at(self, i) + 1:z_at(self, i) + self%n)
-            if (self%m == 0) cycle
-            call self%sys%constraint(self%q_work, self%phi_work)
-            max_phi = max(max_phi, maxval(abs(self%phi_work)))
         end do
     end subroutine scheme_node_values
+
+    !> The displacement node q_i = q_a + z_i (q_0 = q_a) of the solution x of the step
+    !! bound by `set_step`.
+    subroutine scheme_solution_node(self, x, i, q)
+        class(discrete_scheme), intent(in) :: self
+        real(wp), intent(in) :: x(:)   !! solution of the step bound by set_step
+        integer, intent(in) :: i       !! node index, 0..M
+        real(wp), intent(out) :: q(:)  !! q_i (n)
+        q = self%step%qa
+        if (i >= 1) q = q + x(z_at(self, i) + 1:z_at(self, i) + self%n)
+    end subroutine scheme_solution_node
 
 end module holosym_scheme
