@@ -18,7 +18,7 @@
 module holosym_bench_long
     use, intrinsic :: iso_fortran_env, only: real64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status_codes, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS
+    use holosym_status_codes, only: holosym_status_t, int_str, real_str, real_field, HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
     use holosym_manifold, only: manifold_residuals
@@ -243,7 +243,7 @@ contains
             call append_text(argv, "--system")
             call append_text(argv, system)
             call append_text(argv, "--span")
-            call append_text(argv, trim(real_str(span)))
+            call append_text(argv, trim(real_field(span)))
             call append_text(argv, "--reference")
             call append_text(argv, reference_path)
             call append_text(argv, "--out")

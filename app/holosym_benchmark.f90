@@ -9,11 +9,13 @@ module holosym_benchmark
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, &
-        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_STEP_TOO_LARGE
+        status_code_name, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
+        HOLOSYM_STEP_TOO_LARGE
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t
     use holosym_manifold, only: manifold_residuals
     use holosym_rattle, only: rattle_integrator
+    use holosym_progress, only: progress_clock_t
     implicit none
     private
 
@@ -71,6 +73,9 @@ module holosym_benchmark
         integer :: max_levels = 40
         !> Progress lines to this unit (< 0: none).
         integer :: progress_unit = -1
+        !> The command's start, and which sweep of how many this is, for progress lines.
+        type(progress_clock_t) :: clock
+        integer :: sweep = 1, sweeps = 1
         !> holosym's Newton tolerance (`newton%tolerance`); 0: the default (8 epsilon).
         real(wp) :: newton_tolerance = 0
     end type bench_settings_t
@@ -448,12 +453,8 @@ contains
                                 row, status)
             end if
             row%system = system
-            if (settings%progress_unit >= 0) write (settings%progress_unit, '(a)') &
-                "bench: " // trim(system) // " " // trim(row%method) // " order " // &
-                int_str(row%order) // " (" // int_str(order_m) // "," // int_str(order_n) // &
-                "," // int_str(gauss_points) // ") steps " // int_str(steps) // ": error " // &
-                real_str(row%error) // ", " // real_str(real(row%seconds, wp)) // " s" // &
-                trim(merge(" (failed)", "         ", row%code /= HOLOSYM_SUCCESS))
+            if (settings%progress_unit >= 0) call progress_line(settings, system, row, &
+                order_m, order_n, gauss_points, steps, status)
             rows = [rows, row]
             ! Step sizes the integrator refuses as too large to resolve the motion are
             ! passed over until a run succeeds; other failures end the sweep at the third.
@@ -473,6 +474,32 @@ contains
             best = min(best, row%error)
         end do
     end subroutine sweep
+
+    !> The progress line of one run of a sweep: which sweep of how many, the time, the run
+    !! and its error, or why it failed.
+    subroutine progress_line(settings, system, row, order_m, order_n, gauss_points, steps, &
+                             status)
+        type(bench_settings_t), intent(in) :: settings
+        character(len=*), intent(in) :: system
+        type(bench_row_t), intent(in) :: row
+        integer, intent(in) :: order_m, order_n, gauss_points, steps
+        type(holosym_status_t), intent(in) :: status
+        character(len=:), allocatable :: run, outcome
+        run = trim(system) // " " // trim(row%method) // " order " // int_str(row%order) // &
+            " (" // int_str(order_m) // "," // int_str(order_n) // "," // &
+            int_str(gauss_points) // ") steps " // int_str(steps) // ": "
+        if (row%code == HOLOSYM_SUCCESS) then
+            outcome = "error " // real_str(row%error) // ", " // &
+                real_str(real(row%seconds, wp)) // " s"
+        else
+            outcome = "failed: " // status_code_name(row%code)
+            if (allocated(status%message)) then
+                if (len(status%message) > 0) outcome = outcome // ": " // status%message
+            end if
+        end if
+        call settings%clock%report(settings%progress_unit, "bench: ", settings%sweep, &
+                                   settings%sweep - 1, settings%sweeps, run // outcome)
+    end subroutine progress_line
 
 end module holosym_benchmark
 

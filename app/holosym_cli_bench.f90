@@ -17,8 +17,8 @@
 module holosym_cli_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status_codes, only: holosym_status_t, int_str, real_str, status_code_name, &
-        HOLOSYM_SUCCESS
+    use holosym_status_codes, only: holosym_status_t, int_str, real_str, &
+        scientific_field => real_field, status_code_name, HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_benchmark, only: bench_row_t, bench_settings_t, reference_state, holosym_run, &
         sweep_holosym, sweep_rattle, variant_name, bench_span, bench_targets, variant_count, &
@@ -96,6 +96,11 @@ module holosym_cli_bench
         module subroutine not_installed()
         end subroutine not_installed
     end interface
+
+    !> Newton tolerances of the extra real128 sweeps of holosym (M = 2..8, G = M + 1):
+    !! 1e-12 is met by the real64 iterations alone (no real128 residual), the others stop
+    !! the real128 iterations early.
+    real(wp), parameter :: loose_tolerances(3) = [1.0e-12_wp, 1.0e-18_wp, 1.0e-24_wp]
 
 contains
 
@@ -640,6 +645,9 @@ contains
             return
         end if
         system_index = position_of(bench_systems, system)
+        write (err_unit, '(a)') "bench: reference for " // system // ": computing M = 8 " // &
+            "(order 16) with h = " // real_str(reference_steps(system_index)) // " and h/2"
+        flush (err_unit)
         call reference_state(sys, q0, p0, bench_span(system), reference_steps(system_index), &
                              q_ref, p_ref, change, status)
         if (.not. status%ok()) return
@@ -707,10 +715,6 @@ contains
         type(bench_row_t), allocatable :: heyoka_rows(:)
         type(holosym_status_t) :: run_status
         type(text_t), allocatable :: reference_lines(:)
-        !> Newton tolerances of the extra real128 sweeps of holosym (M = 2..8, G = M + 1):
-        !! 1e-12 is met by the real64 iterations alone (no real128 residual), the others
-        !! stop the real128 iterations early.
-        real(wp), parameter :: loose_tolerances(3) = [1.0e-12_wp, 1.0e-18_wp, 1.0e-24_wp]
         integer :: tolerance
         integer :: s, order_m, gauss_points, family, variant, config
         character(len=:), allocatable :: heyoka_csv
@@ -722,6 +726,9 @@ contains
         if (.not. status%ok()) return
         settings%budget = options%budget
         settings%progress_unit = err_unit
+        settings%sweeps = sweep_count(options)
+        settings%sweep = 0
+        call settings%clock%begin()
         allocate (reference_lines(0))
         if (len(options%reference) == 0) then
             call append_text(reference_lines, "# initial states q0, p0 and reference " // &
@@ -763,6 +770,7 @@ contains
             end if
             do order_m = 1, options%max_m
                 do gauss_points = order_m, order_m + 1
+                    settings%sweep = settings%sweep + 1
                     call sweep_holosym(sys, trim(bench_systems(s)), q0, p0, order_m, &
                         order_m - 1, gauss_points, sweep_h0, q_ref, p_ref, settings, rows)
                 end do
@@ -773,12 +781,15 @@ contains
                 loose = settings
                 loose%newton_tolerance = loose_tolerances(tolerance)
                 do order_m = 2, min(8, options%max_m)
+                    settings%sweep = settings%sweep + 1
+                    loose%sweep = settings%sweep
                     call sweep_holosym(sys, trim(bench_systems(s)), q0, p0, order_m, &
                         order_m - 1, order_m + 1, sweep_h0, q_ref, p_ref, loose, rows)
                 end do
             end do
             do family = 1, size(rattle_families)
                 if (rattle_orders(family) > options%max_rattle_order) cycle
+                settings%sweep = settings%sweep + 1
                 call sweep_rattle(sys, trim(bench_systems(s)), q0, p0, rattle_orders(family), &
                     trim(rattle_families(family)), sweep_h0, q_ref, p_ref, settings, rows)
             end do
@@ -790,6 +801,29 @@ contains
             deallocate (q_ref, p_ref, q_end, p_end, q_plain, p_plain)
         end do
     end subroutine run_bench
+
+    !> The number of sweeps `run_bench` makes (the N of its progress lines): per selected
+    !! system 2 M_max holosym sweeps, the looser tolerances' (real128) and RATTLE's.
+    integer function sweep_count(options) result(count)
+        type(bench_options_t), intent(in) :: options
+        integer :: s, per_system
+        per_system = 2 * options%max_m + count_rattle()
+        if (.not. wp_is_double) per_system = per_system + &
+            size(loose_tolerances) * max(0, min(8, options%max_m) - 1)
+        count = 0
+        do s = 1, size(bench_systems)
+            if (selected(options%systems, bench_systems(s))) count = count + per_system
+        end do
+    contains
+        integer function count_rattle()
+            integer :: family
+            count_rattle = 0
+            do family = 1, size(rattle_families)
+                if (rattle_orders(family) <= options%max_rattle_order) &
+                    count_rattle = count_rattle + 1
+            end do
+        end function count_rattle
+    end function sweep_count
 
     !> heyoka's sweep of one system: tools/heyoka_bench.py run (without a shell) with the
     !! --heyoka Python, its rows written to a scratch file, read back strictly (bench CSV,
@@ -822,7 +856,7 @@ contains
         call append_text(argv, "--out")
         call append_text(argv, part)
         call append_text(argv, "--budget")
-        call append_text(argv, trim(real_str(real(options%budget, wp))))
+        call append_text(argv, trim(scientific_field(real(options%budget, wp))))
         if (options%quick) call append_text(argv, "--quick")
         write (err_unit, '(a)') "bench: " // command_text(argv)
         call run_program(argv, "", exit_code, status)

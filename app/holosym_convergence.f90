@@ -5,13 +5,14 @@
 module holosym_convergence
     use, intrinsic :: iso_fortran_env, only: error_unit
     use holosym_kinds, only: wp
-    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, status_code_name, &
         HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_ORDER, HOLOSYM_STEP_TOO_LARGE
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator
     use holosym_task_farm, only: farm_job, task_farm
     use holosym_records, only: record_reader_t, put
+    use holosym_progress, only: progress_clock_t
     implicit none
     private
 
@@ -250,6 +251,7 @@ contains
         class(task_farm), intent(inout), optional :: farm !! who computes the cells
         type(cells_job) :: job
         type(holosym_status_t) :: status
+        type(progress_clock_t) :: clock
         integer :: i, finished
         if (present(farm)) then
             allocate (job%sys, source=sys)
@@ -265,20 +267,38 @@ contains
             return
         end if
         finished = 0
+        call clock%begin()
         !$omp parallel do schedule(dynamic, 1) default(shared) private(i)
         do i = size(cells), 1, -1
             ! Largest configurations first: better load balance.
             call measure_order(sys, q0, p0, q_ref, settings, cells(i))
             !$omp critical (progress_lines)
             finished = finished + 1
-            if (settings%progress) write (error_unit, '(a)') label // ": " // &
-                int_str(finished) // "/" // int_str(size(cells)) // " (M, N, G) = (" // &
-                int_str(cells(i)%order_m) // ", " // int_str(cells(i)%order_n) // ", " // &
-                int_str(cells(i)%gauss_points) // ") " // seconds_text(cells(i)%seconds)
+            if (settings%progress) call progress_line(clock, label, cells(i), finished, &
+                                                      size(cells))
             !$omp end critical (progress_lines)
         end do
         !$omp end parallel do
     end subroutine run_order_cells
+
+    !> The progress line of a measured cell: k/N, the time, its (M, N, G) and its time,
+    !! or why it failed.
+    subroutine progress_line(clock, label, cell, finished, total)
+        type(progress_clock_t), intent(in) :: clock
+        character(len=*), intent(in) :: label
+        type(order_cell_t), intent(in) :: cell
+        integer, intent(in) :: finished, total
+        character(len=:), allocatable :: text
+        text = "(M, N, G) = (" // int_str(cell%order_m) // ", " // int_str(cell%order_n) // &
+            ", " // int_str(cell%gauss_points) // ") " // seconds_text(cell%seconds)
+        if (cell%code /= HOLOSYM_SUCCESS) then
+            text = text // ", failed: " // status_code_name(cell%code)
+            if (allocated(cell%message)) then
+                if (len(cell%message) > 0) text = text // ": " // cell%message
+            end if
+        end if
+        call clock%report(error_unit, label // ": ", finished, finished, total, text)
+    end subroutine progress_line
 
     !> Task i: measure cells(i) and pack it.
     subroutine cells_job_run(self, task, record)

@@ -14,7 +14,16 @@
  *
  * Every function returns a status code (also kept by the handle: holosym_status,
  * holosym_message): 0 success, < 0 invalid input, > 0 numerical failure. On failure the
- * caller's arrays are unchanged (holosym_integrate: they hold the last good step).
+ * caller's arrays are unchanged (holosym_integrate: they hold the last good step). The
+ * codes are the library's table (status_code_table in src/core/holosym_status_codes.f90;
+ * the test suite compares this header with it).
+ *
+ * Pointers: every array argument is checked (NULL: HOLOSYM_INVALID_ARGUMENT naming the
+ * function and the argument); a message buffer may be NULL (nothing is copied). Handles are
+ * looked up among the live ones before use: NULL, a destroyed handle or a pointer the
+ * library did not return is HOLOSYM_NOT_INITIALIZED and is never read, and destroying it is
+ * ignored. What no check can see: arrays shorter than n (or m), and a handle destroyed
+ * while one of its calls runs (e.g. from its own observer).
  *
  * Link: -lholosym -lgfortran -lquadmath -llapack -lblas -lgomp -lm (see `make c-example`).
  */
@@ -40,8 +49,10 @@ typedef __float128 holosym_real;
 #define HOLOSYM_INVALID_STEP_COUNT (-5)         /* steps < 0 */
 #define HOLOSYM_OFF_MANIFOLD (-6)               /* start state violates phi or Phi H_p */
 #define HOLOSYM_USER_ABORT (-7)                 /* the observer returned nonzero */
-#define HOLOSYM_NOT_INITIALIZED (-8)            /* NULL handle, failed create, no step yet */
-#define HOLOSYM_INVALID_ARGUMENT (-9)           /* NULL callback, NaN input, tau not in [0,1] */
+#define HOLOSYM_NOT_INITIALIZED (-8)            /* NULL, destroyed or foreign handle, failed
+                                                   create, no step yet */
+#define HOLOSYM_INVALID_ARGUMENT (-9)           /* NULL callback or array, NaN input, tau not
+                                                   in [0,1] */
 #define HOLOSYM_INVALID_MODEL (-10)             /* model text refused: "model:LINE:COLUMN: ..." */
 #define HOLOSYM_INCONSISTENT_SYSTEM (-11)       /* callbacks disagree (e.g. Phi with phi) */
 #define HOLOSYM_SINGULAR_MATRIX 1
@@ -88,14 +99,15 @@ typedef int (*holosym_observer_fn)(holosym_integrator *integrator, int step, hol
  * every call with HOLOSYM_NOT_INITIALIZED). The callbacks are kept, the struct is not. */
 holosym_integrator *holosym_create(const holosym_system *system, int M, int N, int G);
 
-/* Free the handle (NULL is ignored). */
+/* Free the handle (NULL, a handle destroyed already and a pointer that is no handle are
+ * ignored). */
 void holosym_destroy(holosym_integrator *integrator);
 
 /* The status code of the last call on the handle. */
 int holosym_status(const holosym_integrator *integrator);
 
-/* Copy the last call's message into buffer (NUL-terminated, at most size - 1 characters);
- * returns its full length. */
+/* Copy the last call's message into buffer (NUL-terminated, at most size - 1 characters;
+ * nothing when buffer is NULL or size < 1); returns its full length. */
 int holosym_message(const holosym_integrator *integrator, char *buffer, int size);
 
 /* One step of size h, q[n] and p[n] in place. */

@@ -322,7 +322,7 @@ contains
         if (allocated(error)) return
         call check(error, result%exit_code == 0, "--summarize exits " // &
             int_str(result%exit_code))
-        line = summary_line(result%out, trim(precision), "1.00000E-0010", "pendulum")
+        line = summary_line(result%out, trim(precision), "1.0e-10", "pendulum")
         call check(error, cell(line, 3) == "(5,4,6) h=0.5000", "the error equal to the " // &
             "target meets it; one unit above does not: " // line)
         found = 0
@@ -548,7 +548,7 @@ contains
         call check(error, result%exit_code == 0, "--summarize exits " // &
             int_str(result%exit_code))
 
-        line = summary_line(result%out, "real128", "1.00000E-0010", "pendulum")
+        line = summary_line(result%out, "real128", "1.0e-10", "pendulum")
         call check(error, len(line) > 0, "a real128 line for 1e-10, pendulum")
         if (allocated(error)) return
         call check(error, cell(line, 3) == "(6,5,7) h=1.000", "cheapest holosym: " // line)
@@ -565,16 +565,16 @@ contains
             "heyoka's residual and energy error: " // line)
 
         ! 1e-14: nothing reaches it.
-        line = summary_line(result%out, "real128", "1.00000E-0014", "pendulum")
+        line = summary_line(result%out, "real128", "1.0e-14", "pendulum")
         call check(error, cell(line, 3) == "—" .and. cell(line, 5) == "—" .and. &
             cell(line, 8) == "—", "1e-14: none: " // line)
         ! 1e-30 is a real128 target, 1e-6 is not.
-        call check(error, len(summary_line(result%out, "real128", "1.00000E-0030", &
+        call check(error, len(summary_line(result%out, "real128", "1.0e-30", &
             "pendulum")) > 0, "a real128 line for 1e-30")
-        call check(error, len(summary_line(result%out, "real128", "1.00000E-0006", &
+        call check(error, len(summary_line(result%out, "real128", "1.0e-06", &
             "pendulum")) == 0, "no real128 line for 1e-6")
         ! Systems without rows and precisions without rows are left out.
-        call check(error, len(summary_line(result%out, "real128", "1.00000E-0010", &
+        call check(error, len(summary_line(result%out, "real128", "1.0e-10", &
             "linkage")) == 0, "no linkage lines")
         call check(error, .not. has_line(result%out, "## real64"), "no real64 section")
         if (allocated(error)) return
@@ -583,12 +583,12 @@ contains
         call write_rows(dir // "/bench64.csv", [make_row("pendulum", "holosym", "real64", 4, &
                         0.5_wp, 1.0e-11_wp, 1.0e-4_real64, 0)])
         call summarize(error, dir, result)
-        line = summary_line(result%out, "real64", "1.00000E-0010", "pendulum")
+        line = summary_line(result%out, "real64", "1.0e-10", "pendulum")
         call check(error, cell(line, 3) == "(4,3,5) h=0.5000", "real64 line: " // line)
-        line = summary_line(result%out, "real64", "1.00000E-0006", "pendulum")
+        line = summary_line(result%out, "real64", "1.0e-06", "pendulum")
         call check(error, cell(line, 3) == "(4,3,5) h=0.5000", "real64 1e-6: " // line)
         call check(error, cell(line, 8) == "—", "no real64 heyoka row: " // line)
-        line = summary_line(result%out, "real128", "1.00000E-0010", "pendulum")
+        line = summary_line(result%out, "real128", "1.0e-10", "pendulum")
         call check(error, cell(line, 3) == "(6,5,7) h=1.000", "real128 line unchanged: " // line)
         call check(error, file_exists(dir // "/performance.md"), "performance.md written")
     end subroutine test_summary_cheapest
@@ -658,6 +658,8 @@ contains
         call check(error, result%exit_code == 0, "bench exits 0, got " // &
             int_str(result%exit_code))
         if (allocated(error)) return
+        call check_progress(error, result%err)
+        if (allocated(error)) return
 
         csv_name = dir // "/" // trim(merge("bench64.csv", "bench.csv  ", wp_is_double))
         call read_lines(csv_name, csv, ios)
@@ -719,7 +721,7 @@ contains
             "summary.md has the lines printed: " // int_str(size(summary)) // " and " // &
             int_str(size(result%out)))
         call check(error, len(summary_line(summary, trim(merge("real64 ", "real128", &
-            wp_is_double)), "1.00000E-0010", "pendulum")) > 0, "a line for 1e-10, pendulum")
+            wp_is_double)), "1.0e-10", "pendulum")) > 0, "a line for 1e-10, pendulum")
         if (allocated(error)) return
 
         ! --summarize rebuilds the same summary from the CSV files.
@@ -753,6 +755,47 @@ contains
         end function count_prefix
 
     end subroutine test_command_end_to_end
+
+    !> The progress lines of a bench run: the reference announced before it is computed;
+    !! then every run as "bench: [k/N, E elapsed, ...] ...", k rising from 1 to N with one
+    !! N, and a failed run with its status and reason (never "error 0 (failed)").
+    subroutine check_progress(error, lines)
+        type(test_error_t), allocatable, intent(inout) :: error
+        type(text_line_t), intent(in) :: lines(:)
+        integer :: i, k, total, last_k, last_total, runs, ios, slash, comma
+        character(len=:), allocatable :: text
+        call check(error, size(lines) > 0, "bench prints progress")
+        if (allocated(error)) return
+        call check(error, index(lines(1)%text, "bench: reference for pendulum: computing") &
+            == 1, "first line announces the reference: " // lines(1)%text)
+        if (allocated(error)) return
+        last_k = 0
+        last_total = -1
+        runs = 0
+        do i = 1, size(lines)
+            text = lines(i)%text
+            if (index(text, "bench: [") /= 1) cycle
+            runs = runs + 1
+            slash = index(text, "/")
+            comma = index(text, ",")
+            read (text(9:slash - 1), *, iostat=ios) k
+            if (ios == 0) read (text(slash + 1:comma - 1), *, iostat=ios) total
+            call check(error, ios == 0 .and. index(text, " elapsed, ") > 0 .and. &
+                (index(text, " left] ") > 0 .or. index(text, "not known yet] ") > 0), &
+                "progress line: " // text)
+            if (allocated(error)) return
+            call check(error, (last_total < 0 .or. total == last_total) .and. &
+                (k == last_k .or. k == last_k + 1) .and. k <= total, &
+                "k/N in order with one N: " // text)
+            if (allocated(error)) return
+            if (index(text, "failed") > 0) call check(error, index(text, ": failed: ") > 0 &
+                .and. index(text, "error 0") == 0, "a failed run says why: " // text)
+            if (allocated(error)) return
+            last_k = k
+            last_total = total
+        end do
+        call check(error, runs > 0 .and. last_k == last_total, "the last sweep is N of N")
+    end subroutine check_progress
 
     !> `bench --scaling --quick`: one CSV line per (K, path), K = 1, 2, 4, 8 on the reduced
     !! step and K <= 4 on the general path, with sane sizes, times and memory; the

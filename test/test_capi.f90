@@ -10,7 +10,7 @@ module test_capi
     use holosym_status_codes, only: HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_STEP_SIZE, &
         HOLOSYM_NOT_INITIALIZED, HOLOSYM_NONFINITE_VALUE, HOLOSYM_USER_ABORT, &
-        HOLOSYM_INVALID_MODEL, holosym_status_t
+        HOLOSYM_INVALID_MODEL, holosym_status_t, status_code_table
     use holosym_integrator, only: constrained_integrator
     use holosym_models, only: planar_pendulum
     use holosym_c, only: holosym_system_c, c_real, holosym_create, holosym_destroy, &
@@ -38,7 +38,10 @@ contains
             new_test("rejects_bad_input", bad_input), &
             new_test("model_through_the_c_interface", model_through_c), &
             new_test("water_through_the_c_interface", water_through_c), &
-            new_test("model_calls_reject_bad_input", model_bad_input)]
+            new_test("model_calls_reject_bad_input", model_bad_input), &
+            new_test("null_arrays_refused", null_arrays), &
+            new_test("destroyed_and_foreign_handles_refused", dead_handles), &
+            new_test("header_and_docs_follow_the_status_table", header_codes)]
     end function capi_tests
 
     ! ---------------------------------------------------------------- C callbacks
@@ -108,12 +111,12 @@ contains
         real(c_real), intent(in) :: q(*), p(*)
         type(c_ptr), value :: data
         real(c_real), pointer :: seen(:)
-        real(c_real) :: qd(2), pd(2), lambda(1)
+        real(c_real), target :: qd(2), pd(2), lambda(1)
         integer(c_int) :: code
         c_watch = 0
         call c_f_pointer(data, seen, [2])
         if (step == 3) then
-            code = holosym_dense_output(handle, 0.5_c_real, qd, pd, lambda)
+            code = holosym_dense_output(handle, 0.5_c_real, c_loc(qd), c_loc(pd), c_loc(lambda))
             seen(1) = qd(1)
             seen(2) = real(code, c_real)
         end if
@@ -137,9 +140,9 @@ contains
     function message_of(handle) result(text)
         type(c_ptr), intent(in) :: handle
         character(len=:), allocatable :: text
-        character(kind=c_char) :: buffer(400)
+        character(kind=c_char), target :: buffer(400)
         integer :: length, i
-        length = holosym_message(handle, buffer, 400_c_int)
+        length = holosym_message(handle, c_loc(buffer), 400_c_int)
         allocate (character(len=min(length, 399)) :: text)
         do i = 1, len(text)
             text(i:i) = buffer(i)
@@ -156,7 +159,7 @@ contains
         type(planar_pendulum) :: sys
         type(constrained_integrator) :: integrator
         type(c_ptr) :: handle
-        real(c_real) :: q(2), p(2)
+        real(c_real), target :: q(2), p(2)
         real(wp) :: qf(2), pf(2)
         integer(c_int), target :: done
         system = pendulum_struct()
@@ -168,9 +171,9 @@ contains
         call sys%initial_state(qf, pf)
         q = qf
         p = pf
-        call check_status_code(error, int(holosym_step(handle, q, p, 0.0625_c_real)), &
+        call check_status_code(error, int(holosym_step(handle, c_loc(q), c_loc(p), 0.0625_c_real)), &
             HOLOSYM_SUCCESS, "step")
-        call check_status_code(error, int(holosym_integrate(handle, q, p, 0.0625_c_real, &
+        call check_status_code(error, int(holosym_integrate(handle, c_loc(q), c_loc(p), 0.0625_c_real, &
             39_c_int, c_null_funptr, c_null_ptr, c_loc(done))), HOLOSYM_SUCCESS, "integrate")
         call check(error, done == 39, "steps_done is not 39")
         integrator%structured = .false.
@@ -189,7 +192,7 @@ contains
         type(constrained_integrator) :: integrator
         type(c_ptr) :: handle
         real(c_real), target :: seen(2)
-        real(c_real) :: q(2), p(2)
+        real(c_real), target :: q(2), p(2)
         real(wp) :: qf(2), pf(2), qd(2), pd(2), lambda(1)
         integer(c_int), target :: done
         integer(c_int) :: code
@@ -200,7 +203,7 @@ contains
         q = qf
         p = pf
         seen = -1
-        code = holosym_integrate(handle, q, p, 0.0625_c_real, 10_c_int, c_funloc(c_watch), &
+        code = holosym_integrate(handle, c_loc(q), c_loc(p), 0.0625_c_real, 10_c_int, c_funloc(c_watch), &
                                  c_loc(seen), c_loc(done))
         call check_status_code(error, int(code), HOLOSYM_USER_ABORT, "observer stops at 5")
         call check(error, done == 5 .and. nint(seen(2)) == HOLOSYM_SUCCESS, &
@@ -219,10 +222,10 @@ contains
         type(test_error_t), allocatable, intent(out) :: error
         type(holosym_system_c), target :: system
         type(c_ptr) :: handle
-        real(c_real) :: q(2), p(2), q0(2), p0(2), lambda(1)
+        real(c_real), target :: q(2), p(2), q0(2), p0(2), lambda(1)
         real(c_real), target :: marker
         character(len=:), allocatable :: message
-        character(kind=c_char) :: tiny_buffer(4)
+        character(kind=c_char), target :: tiny_buffer(4)
         integer(c_int) :: code
         q0 = [sin(1.0_c_real), -cos(1.0_c_real)]
         p0 = 0
@@ -232,7 +235,7 @@ contains
             4_c_int)), "NULL system: NULL handle")
         call check_status_code(error, int(holosym_status(c_null_ptr)), &
             HOLOSYM_NOT_INITIALIZED, "status of NULL")
-        call check_status_code(error, int(holosym_step(c_null_ptr, q, p, 0.0625_c_real)), &
+        call check_status_code(error, int(holosym_step(c_null_ptr, c_loc(q), c_loc(p), 0.0625_c_real)), &
             HOLOSYM_NOT_INITIALIZED, "step on NULL")
         system = pendulum_struct()
         system%dh_dp = c_null_funptr
@@ -241,7 +244,7 @@ contains
             "NULL callback")
         call check(error, index(message_of(handle), "callback") > 0, "message: " // &
             message_of(handle))
-        call check_status_code(error, int(holosym_step(handle, q, p, 0.0625_c_real)), &
+        call check_status_code(error, int(holosym_step(handle, c_loc(q), c_loc(p), 0.0625_c_real)), &
             HOLOSYM_NOT_INITIALIZED, "step on a failed handle")
         call holosym_destroy(handle)
         system = pendulum_struct()
@@ -256,16 +259,16 @@ contains
         call check_status_code(error, int(holosym_status(handle)), HOLOSYM_INVALID_ORDER, "M = 0")
         call holosym_destroy(handle)
         handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
-        code = holosym_dense_output(handle, 0.5_c_real, q, p, lambda)
+        code = holosym_dense_output(handle, 0.5_c_real, c_loc(q), c_loc(p), c_loc(lambda))
         call check_status_code(error, int(code), HOLOSYM_NOT_INITIALIZED, "dense before a step")
-        code = holosym_step(handle, q, p, -1.0_c_real)
+        code = holosym_step(handle, c_loc(q), c_loc(p), -1.0_c_real)
         call check_status_code(error, int(code), HOLOSYM_INVALID_STEP_SIZE, "h = -1")
         call check(error, all(q == q0) .and. all(p == p0), "state unchanged")
-        code = holosym_message(handle, tiny_buffer, 4_c_int)
+        code = holosym_message(handle, c_loc(tiny_buffer), 4_c_int)
         call check(error, code == len(message_of(handle)) .and. code > 3 .and. &
             tiny_buffer(4) == char(0), "truncated message NUL-terminated, full length returned")
         q = [0.6_c_real, 0.8_c_real]
-        code = holosym_project(handle, q, p)
+        code = holosym_project(handle, c_loc(q), c_loc(p))
         call check(error, code == HOLOSYM_SUCCESS .and. abs(q(1)**2 + q(2)**2 - 1) <= 8 * eps, &
             "project")
         call holosym_destroy(handle)
@@ -276,7 +279,7 @@ contains
         handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
         q = q0
         p = p0
-        code = holosym_step(handle, q, p, 0.0625_c_real)
+        code = holosym_step(handle, c_loc(q), c_loc(p), 0.0625_c_real)
         message = message_of(handle)
         call check_status_code(error, int(code), HOLOSYM_NONFINITE_VALUE, "failing callback")
         call check(error, index(message, "dh_dq returned 7") > 0, "message: " // message)
@@ -328,7 +331,7 @@ contains
         integer(c_int), target :: n, m, done
         real(c_real), target :: q(4), p(4), value
         real(wp) :: qf(4), pf(4)
-        character(kind=c_char) :: buffer(16)
+        character(kind=c_char), target :: buffer(16)
         text = c_text(file_text("example/models/fourbar.hsm"))
         handle = holosym_model_create(c_loc(text), 4_c_int, 3_c_int, 5_c_int)
         call check_status_code(error, int(holosym_status(handle)), HOLOSYM_SUCCESS, &
@@ -338,14 +341,14 @@ contains
             HOLOSYM_SUCCESS, "sizes")
         call check(error, n == 4 .and. m == 3, "n = 4, m = 3")
         call check(error, holosym_model_parameter_count(handle) == 9, "9 parameters")
-        n = holosym_model_name(handle, name_momentum_c, 2_c_int, buffer, 16_c_int)
+        n = holosym_model_name(handle, name_momentum_c, 2_c_int, c_loc(buffer), 16_c_int)
         call check(error, n == 3 .and. all(buffer(1:4) == ["p", "y", "b", achar(0)]), &
             "momentum 2 is pyb")
         if (allocated(error)) return
-        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+        call check_status_code(error, int(holosym_model_initial_state(handle, c_loc(q), c_loc(p))), &
             HOLOSYM_SUCCESS, message_of(handle))
         call check(error, index(message_of(handle), "not tangent") > 0, "the start's note")
-        call check_status_code(error, int(holosym_integrate(handle, q, p, 1.0_c_real / 32, &
+        call check_status_code(error, int(holosym_integrate(handle, c_loc(q), c_loc(p), 1.0_c_real / 32, &
             40_c_int, c_null_funptr, c_null_ptr, c_loc(done))), HOLOSYM_SUCCESS, &
             message_of(handle))
         if (allocated(error)) return
@@ -362,7 +365,7 @@ contains
         call check_status_code(error, int(holosym_model_get_parameter(handle, c_loc(name), &
             c_loc(value))), HOLOSYM_SUCCESS, message_of(handle))
         call check(error, value == 3, "omega reads back 3")
-        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+        call check_status_code(error, int(holosym_model_initial_state(handle, c_loc(q), c_loc(p))), &
             HOLOSYM_SUCCESS, message_of(handle))
         call model%set_parameter("omega", 3.0_wp)
         call model%initial_state(qf, pf, status)
@@ -381,7 +384,7 @@ contains
         type(constrained_integrator) :: integ
         type(holosym_status_t) :: status
         integer(c_int), target :: done
-        real(c_real) :: q(9), p(9)
+        real(c_real), target :: q(9), p(9)
         real(wp) :: qf(9), pf(9), difference
         character(len=16) :: shown
         text = c_text(file_text("example/models/water.hsm"))
@@ -389,9 +392,9 @@ contains
         call check_status_code(error, int(holosym_status(handle)), HOLOSYM_SUCCESS, &
             message_of(handle))
         if (allocated(error)) return
-        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+        call check_status_code(error, int(holosym_model_initial_state(handle, c_loc(q), c_loc(p))), &
             HOLOSYM_SUCCESS, message_of(handle))
-        call check_status_code(error, int(holosym_integrate(handle, q, p, 1.0_c_real / 16, &
+        call check_status_code(error, int(holosym_integrate(handle, c_loc(q), c_loc(p), 1.0_c_real / 16, &
             160_c_int, c_null_funptr, c_null_ptr, c_loc(done))), HOLOSYM_SUCCESS, &
             message_of(handle))
         call holosym_destroy(handle)
@@ -417,9 +420,9 @@ contains
         character(kind=c_char), allocatable, target :: text(:), name(:)
         type(c_ptr) :: handle, callbacks
         type(holosym_system_c), target :: system
-        real(c_real) :: q(2), p(2)
+        real(c_real), target :: q(2), p(2)
         real(c_real), target :: value
-        character(kind=c_char) :: buffer(16)
+        character(kind=c_char), target :: buffer(16)
         text = c_text("coordinates x y" // achar(10) // "momenta px py" // achar(10) // &
             "hamiltonian px^2 + z")
         handle = holosym_model_create(c_loc(text), 2_c_int, 1_c_int, 3_c_int)
@@ -429,9 +432,9 @@ contains
             message_of(handle))
         q = 7
         p = 8
-        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+        call check_status_code(error, int(holosym_model_initial_state(handle, c_loc(q), c_loc(p))), &
             HOLOSYM_NOT_INITIALIZED, "initial state of a refused model")
-        call check_status_code(error, int(holosym_step(handle, q, p, 0.1_c_real)), &
+        call check_status_code(error, int(holosym_step(handle, c_loc(q), c_loc(p), 0.1_c_real)), &
             HOLOSYM_NOT_INITIALIZED, "step of a refused model")
         call check(error, all(q == 7) .and. all(p == 8), "arrays unchanged")
         call holosym_destroy(handle)
@@ -451,22 +454,175 @@ contains
             > 0, message_of(handle))
         call check_status_code(error, int(holosym_model_get_parameter(handle, c_null_ptr, &
             c_loc(value))), HOLOSYM_INVALID_ARGUMENT, "NULL name")
-        call check_status_code(error, int(holosym_model_initial_state(handle, q, p)), &
+        call check_status_code(error, int(holosym_model_initial_state(handle, c_loc(q), c_loc(p))), &
             HOLOSYM_INVALID_ARGUMENT, "no initial state")
         call check(error, index(message_of(handle), "states no initial state") > 0, &
             message_of(handle))
-        call check(error, holosym_model_name(handle, 7_c_int, 1_c_int, buffer, 16_c_int) == &
+        call check(error, holosym_model_name(handle, 7_c_int, 1_c_int, c_loc(buffer), 16_c_int) == &
             HOLOSYM_INVALID_ARGUMENT .and. holosym_model_name(handle, name_coordinate_c, &
-            3_c_int, buffer, 16_c_int) == HOLOSYM_INVALID_ARGUMENT, "name out of range")
+            3_c_int, c_loc(buffer), 16_c_int) == HOLOSYM_INVALID_ARGUMENT, "name out of range")
         call holosym_destroy(handle)
         if (allocated(error)) return
         system = pendulum_struct()
         callbacks = holosym_create(c_loc(system), 2_c_int, 1_c_int, 3_c_int)
-        call check_status_code(error, int(holosym_model_initial_state(callbacks, q, p)), &
+        call check_status_code(error, int(holosym_model_initial_state(callbacks, c_loc(q), c_loc(p))), &
             HOLOSYM_INVALID_ARGUMENT, "a handle of callbacks is not a model")
         call check(error, index(message_of(callbacks), "made by holosym_create") > 0, &
             message_of(callbacks))
         call holosym_destroy(callbacks)
     end subroutine model_bad_input
+
+    ! ---------------------------------------------------------------- contract
+
+    !> Every array argument checked: a NULL q, p or lambda (m > 0) fails the call with
+    !! HOLOSYM_INVALID_ARGUMENT naming the function and the argument, the other arrays
+    !! unchanged; a NULL message buffer gets nothing and the full length is returned.
+    subroutine null_arrays(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(holosym_system_c), target :: system
+        type(c_ptr) :: handle, model
+        real(c_real), target :: q(2), p(2), q0(2), p0(2), lambda(1)
+        character(kind=c_char), allocatable, target :: text(:)
+        integer(c_int) :: code
+        q0 = [sin(1.0_c_real), -cos(1.0_c_real)]
+        p0 = 0
+        system = pendulum_struct()
+        handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
+        q = q0
+        p = p0
+        call expect(holosym_step(handle, c_null_ptr, c_loc(p), 0.0625_c_real), &
+                    "holosym_step: q is NULL")
+        call expect(holosym_step(handle, c_loc(q), c_null_ptr, 0.0625_c_real), &
+                    "holosym_step: p is NULL")
+        call expect(holosym_integrate(handle, c_null_ptr, c_loc(p), 0.0625_c_real, 3_c_int, &
+            c_null_funptr, c_null_ptr, c_null_ptr), "holosym_integrate: q is NULL")
+        call expect(holosym_project(handle, c_loc(q), c_null_ptr), "holosym_project: p is NULL")
+        if (allocated(error)) return
+        call check(error, all(q == q0) .and. all(p == p0), "arrays unchanged")
+        if (allocated(error)) return
+        code = holosym_step(handle, c_loc(q), c_loc(p), 0.0625_c_real)
+        call check_status_code(error, int(code), HOLOSYM_SUCCESS, "a step")
+        if (allocated(error)) return
+        call expect(holosym_dense_output(handle, 0.5_c_real, c_loc(q0), c_loc(p0), &
+                                         c_null_ptr), "holosym_dense_output: lambda is NULL")
+        call expect(holosym_dense_output(handle, 0.5_c_real, c_null_ptr, c_loc(p0), &
+                                         c_loc(lambda)), "holosym_dense_output: q is NULL")
+        if (allocated(error)) return
+        call check(error, holosym_message(handle, c_null_ptr, 100_c_int) == &
+            len(message_of(handle)), "a NULL buffer: the length, nothing copied")
+        call holosym_destroy(handle)
+        text = c_text(file_text("example/models/fourbar.hsm"))
+        model = holosym_model_create(c_loc(text), 2_c_int, 1_c_int, 3_c_int)
+        handle = model
+        call expect(holosym_model_initial_state(model, c_loc(q), c_null_ptr), &
+                    "holosym_model_initial_state: p is NULL")
+        call check(error, holosym_model_name(model, name_coordinate_c, 1_c_int, c_null_ptr, &
+            8_c_int) > 0, "model name into a NULL buffer: the length")
+        call holosym_destroy(model)
+    contains
+        subroutine expect(code, text)
+            integer(c_int), intent(in) :: code
+            character(len=*), intent(in) :: text
+            if (allocated(error)) return
+            call check_status_code(error, int(code), HOLOSYM_INVALID_ARGUMENT, text)
+            if (allocated(error)) return
+            call check(error, index(message_of(handle), text) == 1, "message '" // &
+                message_of(handle) // "', expected '" // text // "...'")
+        end subroutine expect
+    end subroutine null_arrays
+
+    !> A destroyed handle, a handle destroyed twice and a pointer the library never
+    !! returned: every call answers HOLOSYM_NOT_INITIALIZED without reading it, destroy
+    !! ignores it, the message says what is wrong.
+    subroutine dead_handles(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(holosym_system_c), target :: system
+        type(c_ptr) :: handle, other
+        real(c_real), target :: q(2), p(2), not_a_handle(64)
+        integer :: k
+        type(c_ptr) :: pointers(2)
+        system = pendulum_struct()
+        handle = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
+        other = holosym_create(c_loc(system), 3_c_int, 2_c_int, 4_c_int)
+        call holosym_destroy(handle)
+        call holosym_destroy(handle)          ! twice: ignored
+        not_a_handle = 1
+        pointers = [handle, c_loc(not_a_handle)]
+        q = [sin(1.0_c_real), -cos(1.0_c_real)]
+        p = 0
+        do k = 1, 2
+            call check_status_code(error, int(holosym_status(pointers(k))), &
+                HOLOSYM_NOT_INITIALIZED, "status of a dead or foreign handle")
+            if (allocated(error)) return
+            call check_status_code(error, int(holosym_step(pointers(k), c_loc(q), c_loc(p), &
+                0.0625_c_real)), HOLOSYM_NOT_INITIALIZED, "step on a dead or foreign handle")
+            if (allocated(error)) return
+            call check(error, index(message_of(pointers(k)), "not a live integrator") > 0, &
+                "message: " // message_of(pointers(k)))
+            if (allocated(error)) return
+            call holosym_destroy(pointers(k))
+        end do
+        call check(error, all(not_a_handle == 1), "a foreign pointer is not written")
+        if (allocated(error)) return
+        call check_status_code(error, int(holosym_step(other, c_loc(q), c_loc(p), &
+            0.0625_c_real)), HOLOSYM_SUCCESS, "the other handle still works")
+        call holosym_destroy(other)
+    end subroutine dead_handles
+
+    !> include/holosym.h defines exactly the codes of the library's table, with their
+    !! values, and docs/status-codes.md has a row for each with its short name.
+    subroutine header_codes(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(len=:), allocatable :: header, docs, row, value
+        character(len=64) :: name
+        integer :: k, start, finish, found, defined, code, io
+        header = file_text("include/holosym.h")
+        docs = file_text("docs/status-codes.md")
+        defined = 0
+        start = 1
+        do
+            found = index(header(start:), "#define HOLOSYM_")
+            if (found == 0) exit
+            start = start + found - 1 + len("#define ")
+            finish = start + index(header(start:), new_line("a")) - 2
+            row = header(start:finish)
+            start = finish + 1
+            if (index(row, "/*") > 0) row = row(:index(row, "/*") - 1)
+            read (row, *, iostat=io) name
+            if (name == "HOLOSYM_H" .or. index(name, "HOLOSYM_NAME_") == 1) cycle
+            value = adjustl(row(len_trim(name) + 1:))
+            if (value(1:1) == "(") value = value(2:index(value, ")") - 1)
+            read (value, *, iostat=io) code
+            call check(error, io == 0, "header: no value in '" // trim(row) // "'")
+            if (allocated(error)) return
+            defined = defined + 1
+            k = findloc(status_code_table%constant, name, dim=1)
+            call check(error, k > 0, "header defines " // trim(name) // ", not in the table")
+            if (allocated(error)) return
+            call check(error, status_code_table(k)%code == code, "header: " // trim(name) // &
+                " has another value than in the library")
+            if (allocated(error)) return
+        end do
+        call check(error, defined == size(status_code_table), "header: codes missing")
+        if (allocated(error)) return
+        do k = 1, size(status_code_table)
+            associate (entry => status_code_table(k))
+                row = "| " // minus(entry%code) // " | `" // trim(entry%constant) // "` | " // &
+                    trim(entry%name) // " |"
+                call check(error, index(docs, row) > 0, "docs/status-codes.md: no row " // row)
+                if (allocated(error)) return
+            end associate
+        end do
+    contains
+        !> The code as the docs write it (a minus sign, U+2212, for negatives).
+        function minus(number) result(text)
+            integer, intent(in) :: number
+            character(len=:), allocatable :: text
+            character(len=12) :: digits
+            write (digits, '(i0)') abs(number)
+            text = trim(digits)
+            if (number < 0) text = char(226) // char(136) // char(146) // text
+        end function minus
+    end subroutine header_codes
 
 end module test_capi

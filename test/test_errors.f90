@@ -563,6 +563,9 @@ contains
         q = q0 * (1 + 1.0e-3_wp)
         call check_both_fail(error, integ, sys, q, p0, step_size, HOLOSYM_OFF_MANIFOLD, &
             "|q| = 1.001", "max|phi|")
+        ! The message names the two ways onto the manifold.
+        call check_both_fail(error, integ, sys, q, p0, step_size, HOLOSYM_OFF_MANIFOLD, &
+            "|q| = 1.001", "project_to_manifold (from q and p) or state_from_velocities")
         ! barely_off relative is tiny yet far above the manifold tolerance (1024 eps).
         q = q0
         q(2) = q(2) * (1 + barely_off)
@@ -587,6 +590,8 @@ contains
         p(3) = 0.1_wp
         call check_both_fail(error, integ, sys, q0, p, step_size, HOLOSYM_OFF_MANIFOLD, &
             "p_z = 0.1", "hidden")
+        call check_both_fail(error, integ, sys, q0, p, step_size, HOLOSYM_OFF_MANIFOLD, &
+            "p_z = 0.1", "project_to_manifold (from q and p) or state_from_velocities")
         p(3) = barely_off
         call check_both_fail(error, integ, sys, q0, p, step_size, HOLOSYM_OFF_MANIFOLD, &
             "p_z = 1e8 eps", "hidden")

@@ -66,6 +66,12 @@ contains
         call check(error, any_line_contains(result%out, "#### Table 1: order of the energy " // &
             "error") .and. any_line_contains(result%out, "#### Table 3:"), &
             "the Markdown tables on standard output")
+        ! Progress: k/N of Table 1's 12 cells with the time, and each failed cell's reason.
+        call check(error, any_line_contains(result%err, "/12, ") .and. &
+            any_line_contains(result%err, " elapsed, ") .and. &
+            any_line_contains(result%err, ", failed: singular matrix: "), &
+            "progress lines with k/N, the time and the reason of a failed cell")
+        if (allocated(error)) return
         call read_lines(dir // "/table1.csv", table1, ios)
         call check(error, ios == 0 .and. size(table1) == 13, "table1.csv: header + 12 cells")
         if (allocated(error)) return

@@ -32,6 +32,7 @@ module holosym_c
     use holosym_formula_model, only: formula_model, model_from_text
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
     use holosym_projection, only: project_to_manifold
+    use holosym_c_registry, only: register_handle, forget_handle, is_live_handle
     implicit none
     private
 
@@ -275,13 +276,69 @@ contains
 
     ! ---------------------------------------------------------------- helpers
 
-    !> The handle behind a C pointer (null when there is none).
+    !> The handle behind a C pointer: null unless it is a live handle (not NULL, not
+    !! destroyed, returned by a create; see holosym_c_registry).
     function handle_of(ptr) result(handle)
         type(c_ptr), intent(in) :: ptr
         type(c_handle), pointer :: handle
         handle => null()
-        if (c_associated(ptr)) call c_f_pointer(ptr, handle)
+        if (is_live_handle(ptr)) call c_f_pointer(ptr, handle)
     end function handle_of
+
+    !> A new live handle with an empty status, and its C pointer.
+    function new_handle(handle) result(ptr)
+        type(c_handle), pointer, intent(out) :: handle
+        type(c_ptr) :: ptr
+        allocate (handle)
+        allocate (handle%record)
+        handle%message = ""
+        ptr = c_loc(handle)
+        call register_handle(ptr)
+    end function new_handle
+
+    !> The handle behind `ptr` when it is live and was created successfully; otherwise
+    !! null, with `code` HOLOSYM_NOT_INITIALIZED (and the handle's status when live).
+    !! `caller` names the C function in the message.
+    function ready_handle(ptr, caller, code) result(handle)
+        type(c_ptr), intent(in) :: ptr
+        character(len=*), intent(in) :: caller
+        integer(c_int), intent(out) :: code
+        type(c_handle), pointer :: handle
+        handle => handle_of(ptr)
+        code = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        if (.not. associated(handle)) return
+        if (.not. handle%ready) then
+            code = refuse(handle, HOLOSYM_NOT_INITIALIZED, caller // ": the integrator " // &
+                "was not created successfully")
+            handle => null()
+            return
+        end if
+        code = int(HOLOSYM_SUCCESS, c_int)
+    end function ready_handle
+
+    !> Whether the arrays q and p of a call are given: a NULL one fails the call with
+    !! HOLOSYM_INVALID_ARGUMENT naming `caller` and the argument (`code`).
+    logical function arrays_given(handle, caller, q_ptr, p_ptr, code) result(given)
+        type(c_handle), intent(inout) :: handle
+        character(len=*), intent(in) :: caller
+        type(c_ptr), intent(in) :: q_ptr, p_ptr
+        integer(c_int), intent(out) :: code
+        given = c_associated(q_ptr) .and. c_associated(p_ptr)
+        code = int(HOLOSYM_SUCCESS, c_int)
+        if (.not. c_associated(q_ptr)) then
+            code = refuse(handle, HOLOSYM_INVALID_ARGUMENT, caller // ": q is NULL")
+        else if (.not. c_associated(p_ptr)) then
+            code = refuse(handle, HOLOSYM_INVALID_ARGUMENT, caller // ": p is NULL")
+        end if
+    end function arrays_given
+
+    !> The `count` reals at a C address that is not NULL.
+    function reals_at(address, count) result(values)
+        type(c_ptr), intent(in) :: address
+        integer, intent(in) :: count
+        real(c_real), pointer :: values(:)
+        call c_f_pointer(address, values, [count])
+    end function reals_at
 
     !> Record a call's outcome in the handle, adding the failing callback if any.
     integer(c_int) function finish(handle, status) result(code)
@@ -346,10 +403,7 @@ contains
         ptr = c_null_ptr
         if (.not. c_associated(system_ptr)) return
         call c_f_pointer(system_ptr, system)
-        allocate (handle)
-        allocate (handle%record)
-        handle%message = ""
-        ptr = c_loc(handle)
+        ptr = new_handle(handle)
         if (.not. (c_associated(system%hamiltonian) .and. c_associated(system%dh_dq) .and. &
                    c_associated(system%dh_dp) .and. c_associated(system%constraint) .and. &
                    c_associated(system%constraint_jacobian))) then
@@ -391,19 +445,20 @@ contains
         ignored = finish(handle, status)
     end subroutine init_integrator
 
-    !> void holosym_destroy(holosym_integrator *integrator): free the handle (NULL is
-    !! ignored).
+    !> void holosym_destroy(holosym_integrator *integrator): free the handle (NULL, a
+    !! handle destroyed already and a pointer that is no handle are ignored).
     subroutine holosym_destroy(ptr) bind(C, name="holosym_destroy")
         type(c_ptr), value :: ptr !! the handle
         type(c_handle), pointer :: handle
         handle => handle_of(ptr)
         if (.not. associated(handle)) return
+        if (.not. forget_handle(ptr)) return
         if (associated(handle%record)) deallocate (handle%record)
         deallocate (handle)
     end subroutine holosym_destroy
 
     !> int holosym_status(const holosym_integrator *integrator): the code of the last call
-    !! (HOLOSYM_NOT_INITIALIZED for NULL).
+    !! (HOLOSYM_NOT_INITIALIZED for NULL, a destroyed handle or a pointer that is none).
     integer(c_int) function holosym_status(ptr) bind(C, name="holosym_status")
         type(c_ptr), value :: ptr !! the handle
         type(c_handle), pointer :: handle
@@ -414,28 +469,32 @@ contains
 
     !> int holosym_message(const holosym_integrator *integrator, char *buffer, int size):
     !! copy the message of the last call into buffer (NUL-terminated, truncated to size - 1
-    !! characters); returns the message's full length.
+    !! characters; nothing is copied when buffer is NULL or size < 1); returns the
+    !! message's full length.
     integer(c_int) function holosym_message(ptr, buffer, size) bind(C, name="holosym_message")
-        type(c_ptr), value :: ptr                     !! the handle
-        character(kind=c_char), intent(out) :: buffer(*) !! the message
-        integer(c_int), value :: size                 !! room in buffer, including the NUL
+        type(c_ptr), value :: ptr     !! the handle
+        type(c_ptr), value :: buffer  !! char *: the message, or NULL
+        integer(c_int), value :: size !! room in buffer, including the NUL
         type(c_handle), pointer :: handle
         character(len=:), allocatable :: text
         handle => handle_of(ptr)
-        text = "NULL integrator"
+        text = "not a live integrator (NULL, destroyed, or not returned by holosym_create " &
+            // "or holosym_model_create)"
         if (associated(handle)) text = handle%message
         holosym_message = copy_text(text, buffer, size)
     end function holosym_message
 
     !> Copy `text` into a C buffer of `size` characters (NUL-terminated, truncated to
-    !! size - 1 characters); the text's full length.
-    integer(c_int) function copy_text(text, buffer, size) result(length)
+    !! size - 1 characters; nothing when the buffer is NULL); the text's full length.
+    integer(c_int) function copy_text(text, buffer_ptr, size) result(length)
         character(len=*), intent(in) :: text
-        character(kind=c_char), intent(out) :: buffer(*)
+        type(c_ptr), intent(in) :: buffer_ptr
         integer(c_int), intent(in) :: size
+        character(kind=c_char), pointer :: buffer(:)
         integer :: i, count
         length = int(len(text), c_int)
-        if (size < 1) return
+        if (size < 1 .or. .not. c_associated(buffer_ptr)) return
+        call c_f_pointer(buffer_ptr, buffer, [int(size)])
         count = min(len(text), int(size) - 1)
         do i = 1, count
             buffer(i) = text(i:i)
@@ -446,29 +505,27 @@ contains
     !> int holosym_step(holosym_integrator *integrator, holosym_real *q, holosym_real *p,
     !! holosym_real h): one step in place; q and p unchanged on failure. Codes: those of
     !! the Fortran `step`.
-    integer(c_int) function holosym_step(ptr, q, p, h) bind(C, name="holosym_step")
-        type(c_ptr), value :: ptr            !! the handle
-        real(c_real), intent(inout) :: q(*)  !! coordinates (n)
-        real(c_real), intent(inout) :: p(*)  !! momenta (n)
-        real(c_real), value :: h             !! step size
+    integer(c_int) function holosym_step(ptr, q_ptr, p_ptr, h) bind(C, name="holosym_step")
+        type(c_ptr), value :: ptr    !! the handle
+        type(c_ptr), value :: q_ptr  !! holosym_real *: coordinates (n)
+        type(c_ptr), value :: p_ptr  !! holosym_real *: momenta (n)
+        real(c_real), value :: h     !! step size
         type(c_handle), pointer :: handle
         type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:)
         real(wp), allocatable :: qw(:), pw(:)
-        handle => handle_of(ptr)
-        holosym_step = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        handle => ready_handle(ptr, "holosym_step", holosym_step)
         if (.not. associated(handle)) return
-        if (.not. handle%ready) then
-            holosym_step = refuse(handle, HOLOSYM_NOT_INITIALIZED, "holosym_step: the " // &
-                "integrator was not created successfully")
-            return
-        end if
+        if (.not. arrays_given(handle, "holosym_step", q_ptr, p_ptr, holosym_step)) return
+        q => reals_at(q_ptr, handle%system%n)
+        p => reals_at(p_ptr, handle%system%n)
         handle%record%code = 0
-        qw = q(1:handle%system%n)
-        pw = p(1:handle%system%n)
+        qw = q
+        pw = p
         call handle%integrator%step(handle%system, qw, pw, real(h, wp), status=status)
         if (status%code == HOLOSYM_SUCCESS) then
-            q(1:handle%system%n) = qw
-            p(1:handle%system%n) = pw
+            q = qw
+            p = pw
         end if
         holosym_step = finish(handle, status)
     end function holosym_step
@@ -480,11 +537,12 @@ contains
     !! (HOLOSYM_USER_ABORT). Inside the observer `holosym_dense_output` evaluates the step
     !! just taken. On failure q, p hold the last good step; steps_done (may be NULL) says
     !! how many steps completed.
-    integer(c_int) function holosym_integrate(ptr, q, p, h, steps, observer, observer_data, &
-                                              steps_done) bind(C, name="holosym_integrate")
+    integer(c_int) function holosym_integrate(ptr, q_ptr, p_ptr, h, steps, observer, &
+                                              observer_data, steps_done) &
+        bind(C, name="holosym_integrate")
         type(c_ptr), value :: ptr             !! the handle
-        real(c_real), intent(inout) :: q(*)   !! coordinates (n)
-        real(c_real), intent(inout) :: p(*)   !! momenta (n)
+        type(c_ptr), value :: q_ptr           !! holosym_real *: coordinates (n)
+        type(c_ptr), value :: p_ptr           !! holosym_real *: momenta (n)
         real(c_real), value :: h              !! step size
         integer(c_int), value :: steps        !! number of steps
         type(c_funptr), value :: observer     !! observer or NULL
@@ -494,19 +552,18 @@ contains
         type(holosym_status_t) :: status
         type(c_step_observer) :: bridge
         integer(c_int), pointer :: done
+        real(c_real), pointer :: q(:), p(:)
         real(wp), allocatable :: qw(:), pw(:)
         integer :: count
-        handle => handle_of(ptr)
-        holosym_integrate = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        handle => ready_handle(ptr, "holosym_integrate", holosym_integrate)
         if (.not. associated(handle)) return
-        if (.not. handle%ready) then
-            holosym_integrate = refuse(handle, HOLOSYM_NOT_INITIALIZED, "holosym_integrate: " &
-                // "the integrator was not created successfully")
+        if (.not. arrays_given(handle, "holosym_integrate", q_ptr, p_ptr, holosym_integrate)) &
             return
-        end if
+        q => reals_at(q_ptr, handle%system%n)
+        p => reals_at(p_ptr, handle%system%n)
         handle%record%code = 0
-        qw = q(1:handle%system%n)
-        pw = p(1:handle%system%n)
+        qw = q
+        pw = p
         count = 0
         if (c_associated(observer)) then
             call c_f_procpointer(observer, bridge%fn)
@@ -519,8 +576,8 @@ contains
                                              steps_done=count, status=status)
         end if
         if (count > 0) then
-            q(1:handle%system%n) = qw
-            p(1:handle%system%n) = pw
+            q = qw
+            p = pw
         end if
         if (c_associated(steps_done)) then
             call c_f_pointer(steps_done, done)
@@ -532,31 +589,39 @@ contains
     !> int holosym_dense_output(const holosym_integrator *integrator, holosym_real tau,
     !! holosym_real *q, holosym_real *p, holosym_real *lambda): the last step's q~, p~ and
     !! lambda~ at tau in [0, 1]; lambda may be NULL when m = 0. Codes: those of the Fortran
-    !! `dense_output`; outputs unchanged on failure.
-    integer(c_int) function holosym_dense_output(ptr, tau, q, p, lambda) &
+    !! `dense_output`, HOLOSYM_INVALID_ARGUMENT for a NULL q, p or (m > 0) lambda; outputs
+    !! unchanged on failure.
+    integer(c_int) function holosym_dense_output(ptr, tau, q_ptr, p_ptr, lambda_ptr) &
         bind(C, name="holosym_dense_output")
-        type(c_ptr), value :: ptr             !! the handle
-        real(c_real), value :: tau            !! normalised time in the last step
-        real(c_real), intent(inout) :: q(*)   !! q~(tau) (n)
-        real(c_real), intent(inout) :: p(*)   !! p~(tau) (n)
-        real(c_real), intent(inout) :: lambda(*) !! lambda~(tau) (m)
+        type(c_ptr), value :: ptr         !! the handle
+        real(c_real), value :: tau        !! normalised time in the last step
+        type(c_ptr), value :: q_ptr       !! holosym_real *: q~(tau) (n)
+        type(c_ptr), value :: p_ptr       !! holosym_real *: p~(tau) (n)
+        type(c_ptr), value :: lambda_ptr  !! holosym_real *: lambda~(tau) (m), NULL if m = 0
         type(c_handle), pointer :: handle
         type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:), lambda(:)
         real(wp), allocatable :: qw(:), pw(:), lw(:)
-        handle => handle_of(ptr)
-        holosym_dense_output = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        handle => ready_handle(ptr, "holosym_dense_output", holosym_dense_output)
         if (.not. associated(handle)) return
-        if (.not. handle%ready) then
-            holosym_dense_output = refuse(handle, HOLOSYM_NOT_INITIALIZED, &
-                "holosym_dense_output: the integrator was not created successfully")
+        if (.not. arrays_given(handle, "holosym_dense_output", q_ptr, p_ptr, &
+                               holosym_dense_output)) return
+        if (handle%system%m > 0 .and. .not. c_associated(lambda_ptr)) then
+            holosym_dense_output = refuse(handle, HOLOSYM_INVALID_ARGUMENT, &
+                "holosym_dense_output: lambda is NULL (m > 0)")
             return
         end if
         allocate (qw(handle%system%n), pw(handle%system%n), lw(handle%system%m))
         call handle%integrator%dense_output(real(tau, wp), qw, pw, lw, status)
         if (status%code == HOLOSYM_SUCCESS) then
-            q(1:handle%system%n) = qw
-            p(1:handle%system%n) = pw
-            if (handle%system%m > 0) lambda(1:handle%system%m) = lw
+            q => reals_at(q_ptr, handle%system%n)
+            p => reals_at(p_ptr, handle%system%n)
+            q = qw
+            p = pw
+            if (handle%system%m > 0) then
+                lambda => reals_at(lambda_ptr, handle%system%m)
+                lambda = lw
+            end if
         end if
         holosym_dense_output = finish(handle, status)
     end function holosym_dense_output
@@ -564,28 +629,26 @@ contains
     !> int holosym_project(holosym_integrator *integrator, holosym_real *q,
     !! holosym_real *p): project (q, p) onto the constraint manifold in place (the Fortran
     !! `project_to_manifold` with its defaults); unchanged on failure.
-    integer(c_int) function holosym_project(ptr, q, p) bind(C, name="holosym_project")
-        type(c_ptr), value :: ptr            !! the handle
-        real(c_real), intent(inout) :: q(*)  !! coordinates (n)
-        real(c_real), intent(inout) :: p(*)  !! momenta (n)
+    integer(c_int) function holosym_project(ptr, q_ptr, p_ptr) bind(C, name="holosym_project")
+        type(c_ptr), value :: ptr    !! the handle
+        type(c_ptr), value :: q_ptr  !! holosym_real *: coordinates (n)
+        type(c_ptr), value :: p_ptr  !! holosym_real *: momenta (n)
         type(c_handle), pointer :: handle
         type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:)
         real(wp), allocatable :: qw(:), pw(:)
-        handle => handle_of(ptr)
-        holosym_project = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        handle => ready_handle(ptr, "holosym_project", holosym_project)
         if (.not. associated(handle)) return
-        if (.not. handle%ready) then
-            holosym_project = refuse(handle, HOLOSYM_NOT_INITIALIZED, "holosym_project: " // &
-                "the integrator was not created successfully")
-            return
-        end if
+        if (.not. arrays_given(handle, "holosym_project", q_ptr, p_ptr, holosym_project)) return
+        q => reals_at(q_ptr, handle%system%n)
+        p => reals_at(p_ptr, handle%system%n)
         handle%record%code = 0
-        qw = q(1:handle%system%n)
-        pw = p(1:handle%system%n)
+        qw = q
+        pw = p
         call project_to_manifold(handle%system, qw, pw, status)
         if (status%code == HOLOSYM_SUCCESS) then
-            q(1:handle%system%n) = qw
-            p(1:handle%system%n) = pw
+            q = qw
+            p = pw
         end if
         holosym_project = finish(handle, status)
     end function holosym_project
@@ -651,10 +714,7 @@ contains
         integer(c_int) :: ignored
         ptr = c_null_ptr
         if (.not. c_associated(text_ptr)) return
-        allocate (handle)
-        allocate (handle%record)
-        handle%message = ""
-        ptr = c_loc(handle)
+        ptr = new_handle(handle)
         call model_from_text(c_string(text_ptr), model, status)
         if (status%code /= HOLOSYM_SUCCESS) then
             ignored = finish(handle, status)
@@ -756,24 +816,29 @@ contains
     !! velocities turned into momenta and projected onto the constraint manifold when off
     !! it (the message then says so). Codes: HOLOSYM_INVALID_ARGUMENT (the model states no
     !! initial state, or not a model), those of the projection; q, p unchanged on failure.
-    integer(c_int) function holosym_model_initial_state(ptr, q, p) &
+    integer(c_int) function holosym_model_initial_state(ptr, q_ptr, p_ptr) &
         bind(C, name="holosym_model_initial_state")
-        type(c_ptr), value :: ptr            !! the handle
-        real(c_real), intent(inout) :: q(*)  !! coordinates (n)
-        real(c_real), intent(inout) :: p(*)  !! momenta (n)
+        type(c_ptr), value :: ptr    !! the handle
+        type(c_ptr), value :: q_ptr  !! holosym_real *: coordinates (n)
+        type(c_ptr), value :: p_ptr  !! holosym_real *: momenta (n)
         type(formula_model), pointer :: model
         type(c_handle), pointer :: handle
         type(holosym_status_t) :: status
         character(len=:), allocatable :: note
+        real(c_real), pointer :: q(:), p(:)
         real(wp), allocatable :: qw(:), pw(:)
         model => model_of(ptr, "holosym_model_initial_state", holosym_model_initial_state)
         if (.not. associated(model)) return
         handle => handle_of(ptr)
+        if (.not. arrays_given(handle, "holosym_model_initial_state", q_ptr, p_ptr, &
+                               holosym_model_initial_state)) return
         allocate (qw(model%n), pw(model%n))
         call model%initial_state(qw, pw, status, note)
         if (status%code == HOLOSYM_SUCCESS) then
-            q(1:model%n) = qw
-            p(1:model%n) = pw
+            q => reals_at(q_ptr, model%n)
+            p => reals_at(p_ptr, model%n)
+            q = qw
+            p = pw
             status%message = note
         end if
         holosym_model_initial_state = finish(handle, status)
@@ -802,7 +867,7 @@ contains
         type(c_ptr), value :: ptr                        !! the handle
         integer(c_int), value :: what                    !! HOLOSYM_NAME_*
         integer(c_int), value :: index                   !! from 1
-        character(kind=c_char), intent(out) :: buffer(*) !! the name
+        type(c_ptr), value :: buffer                     !! char *: the name, or NULL
         integer(c_int), value :: size                    !! room in buffer, with the NUL
         type(formula_model), pointer :: model
         type(c_handle), pointer :: handle

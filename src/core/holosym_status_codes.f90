@@ -15,8 +15,11 @@ module holosym_status_codes
     implicit none
     private
 
+    !> Significant digits of `real_str`.
+    integer, parameter :: short_digits = 4
+
     public :: holosym_status_t, set_status, status_code_name, code_name_field, int_str, &
-        int_len, real_str, real_field, is_finite, is_nan
+        int_len, real_str, real_field, is_finite, is_nan, is_status_code
 
     !> Success.
     integer, parameter, public :: HOLOSYM_SUCCESS = 0
@@ -69,6 +72,54 @@ module holosym_status_codes
     !! be solved; the message gives the limit for the state. Increase h.
     integer, parameter, public :: HOLOSYM_STEP_TOO_SMALL = 7
 
+    !> One status code: its value, its constant's name and its short name.
+    type, public :: status_code_entry_t
+        integer :: code = 0
+        character(len=40) :: constant = ""  !! e.g. "HOLOSYM_SINGULAR_MATRIX"
+        character(len=40) :: name = ""      !! e.g. "singular matrix"
+    end type status_code_entry_t
+
+    !> Every status code: the one table the short names (`status_code_name`), the C
+    !! header (include/holosym.h) and docs/status-codes.md follow (a test compares them).
+    type(status_code_entry_t), parameter, public :: status_code_table(19) = [ &
+        status_code_entry_t(HOLOSYM_SUCCESS, "HOLOSYM_SUCCESS", "success"), &
+        status_code_entry_t(HOLOSYM_INVALID_ORDER, "HOLOSYM_INVALID_ORDER", &
+                            "invalid order parameters"), &
+        status_code_entry_t(HOLOSYM_INVALID_DIMENSION, "HOLOSYM_INVALID_DIMENSION", &
+                            "invalid problem dimensions"), &
+        status_code_entry_t(HOLOSYM_SIZE_MISMATCH, "HOLOSYM_SIZE_MISMATCH", &
+                            "array size mismatch"), &
+        status_code_entry_t(HOLOSYM_INVALID_STEP_SIZE, "HOLOSYM_INVALID_STEP_SIZE", &
+                            "invalid step size"), &
+        status_code_entry_t(HOLOSYM_INVALID_STEP_COUNT, "HOLOSYM_INVALID_STEP_COUNT", &
+                            "invalid step count"), &
+        status_code_entry_t(HOLOSYM_OFF_MANIFOLD, "HOLOSYM_OFF_MANIFOLD", &
+                            "state off the constraint manifold"), &
+        status_code_entry_t(HOLOSYM_USER_ABORT, "HOLOSYM_USER_ABORT", &
+                            "stopped by the observer"), &
+        status_code_entry_t(HOLOSYM_NOT_INITIALIZED, "HOLOSYM_NOT_INITIALIZED", &
+                            "integrator not initialized"), &
+        status_code_entry_t(HOLOSYM_INVALID_ARGUMENT, "HOLOSYM_INVALID_ARGUMENT", &
+                            "invalid argument"), &
+        status_code_entry_t(HOLOSYM_INVALID_MODEL, "HOLOSYM_INVALID_MODEL", "invalid model"), &
+        status_code_entry_t(HOLOSYM_INCONSISTENT_SYSTEM, "HOLOSYM_INCONSISTENT_SYSTEM", &
+                            "inconsistent system"), &
+        status_code_entry_t(HOLOSYM_SINGULAR_MATRIX, "HOLOSYM_SINGULAR_MATRIX", &
+                            "singular matrix"), &
+        status_code_entry_t(HOLOSYM_NEWTON_NOT_CONVERGED, "HOLOSYM_NEWTON_NOT_CONVERGED", &
+                            "Newton not converged"), &
+        status_code_entry_t(HOLOSYM_NEWTON_DIVERGED, "HOLOSYM_NEWTON_DIVERGED", &
+                            "Newton diverged"), &
+        status_code_entry_t(HOLOSYM_NONFINITE_VALUE, "HOLOSYM_NONFINITE_VALUE", &
+                            "non-finite value"), &
+        status_code_entry_t(HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
+                            "HOLOSYM_RANK_DEFICIENT_CONSTRAINTS", &
+                            "rank-deficient constraint Jacobian"), &
+        status_code_entry_t(HOLOSYM_STEP_TOO_LARGE, "HOLOSYM_STEP_TOO_LARGE", &
+                            "step too large"), &
+        status_code_entry_t(HOLOSYM_STEP_TOO_SMALL, "HOLOSYM_STEP_TOO_SMALL", &
+                            "step below the resolution of the state")]
+
     !> Outcome of a call: a code (see the HOLOSYM_* constants) and a message.
     type :: holosym_status_t
         !> 0 on success, < 0 invalid input, > 0 numerical failure.
@@ -103,33 +154,23 @@ contains
         end if
     end subroutine set_status
 
-    !> `status_code_name(code)` in 40 characters.
+    !> `status_code_name(code)` in 40 characters ("unknown status" for a code not in
+    !! `status_code_table`).
     pure function code_name_field(code) result(name)
         integer, intent(in) :: code !! HOLOSYM_* code
         character(len=40) :: name
-        select case (code)
-        case (HOLOSYM_SUCCESS);                    name = "success"
-        case (HOLOSYM_INVALID_ORDER);              name = "invalid order parameters"
-        case (HOLOSYM_INVALID_DIMENSION);          name = "invalid problem dimensions"
-        case (HOLOSYM_SIZE_MISMATCH);              name = "array size mismatch"
-        case (HOLOSYM_INVALID_STEP_SIZE);          name = "invalid step size"
-        case (HOLOSYM_INVALID_STEP_COUNT);         name = "invalid step count"
-        case (HOLOSYM_OFF_MANIFOLD);               name = "state off the constraint manifold"
-        case (HOLOSYM_USER_ABORT);                 name = "stopped by the observer"
-        case (HOLOSYM_NOT_INITIALIZED);            name = "integrator not initialized"
-        case (HOLOSYM_INVALID_ARGUMENT);           name = "invalid argument"
-        case (HOLOSYM_INVALID_MODEL);              name = "invalid model"
-        case (HOLOSYM_INCONSISTENT_SYSTEM);        name = "inconsistent system"
-        case (HOLOSYM_SINGULAR_MATRIX);            name = "singular matrix"
-        case (HOLOSYM_NEWTON_NOT_CONVERGED);       name = "Newton not converged"
-        case (HOLOSYM_NEWTON_DIVERGED);            name = "Newton diverged"
-        case (HOLOSYM_NONFINITE_VALUE);            name = "non-finite value"
-        case (HOLOSYM_RANK_DEFICIENT_CONSTRAINTS); name = "rank-deficient constraint Jacobian"
-        case (HOLOSYM_STEP_TOO_LARGE);             name = "step too large"
-        case (HOLOSYM_STEP_TOO_SMALL);             name = "step below the resolution of the state"
-        case default;                              name = "unknown status"
-        end select
+        integer :: k
+        name = "unknown status"
+        do k = 1, size(status_code_table)
+            if (status_code_table(k)%code == code) name = status_code_table(k)%name
+        end do
     end function code_name_field
+
+    !> Whether `code` is one of the library's status codes (a row of `status_code_table`).
+    elemental logical function is_status_code(code)
+        integer, intent(in) :: code !! a code
+        is_status_code = any(status_code_table%code == code)
+    end function is_status_code
 
     !> Short symbolic name of a status code, e.g. "singular matrix".
     pure function status_code_name(code) result(name)
@@ -187,11 +228,58 @@ contains
         write (text, '(i0)') value
     end function int_str
 
-    !> Short scientific text of a real (any kind converted to wp), for messages.
+    !> `real_str(value)` in 48 characters.
+    pure function short_field(value) result(buffer)
+        real(wp), intent(in) :: value !! value to format
+        character(len=48) :: buffer
+        character(len=48) :: scientific
+        character(len=short_digits) :: digits
+        character(len=:), allocatable :: sign, fraction
+        integer :: e, exponent, used
+        if (.not. is_finite(value)) then
+            buffer = real_field(value)
+            return
+        else if (value == 0) then
+            buffer = "0"
+            return
+        end if
+        write (scientific, '(es48.' // achar(iachar("0") + short_digits - 1) // 'e4)') abs(value)
+        scientific = adjustl(scientific)
+        e = index(scientific, "E")
+        read (scientific(e + 1:), *) exponent
+        digits = scientific(1:1) // scientific(3:e - 1)
+        used = len_trim(digits)
+        do while (used > 1 .and. digits(used:used) == "0")
+            used = used - 1
+        end do
+        sign = merge("-", " ", value < 0)
+        sign = trim(sign)
+        if (exponent >= -4 .and. exponent < 6) then
+            if (exponent >= 0) then
+                fraction = ""
+                if (used > exponent + 1) fraction = "." // digits(exponent + 2:used)
+                buffer = sign // digits(1:min(used, exponent + 1)) // &
+                    repeat("0", max(0, exponent + 1 - used)) // fraction
+            else
+                buffer = sign // "0." // repeat("0", -exponent - 1) // digits(1:used)
+            end if
+        else
+            fraction = ".0"
+            if (used > 1) fraction = "." // digits(2:used)
+            buffer = sign // digits(1:1) // fraction // "e" // merge("-", "+", exponent < 0) // &
+                repeat("0", merge(1, 0, abs(exponent) < 10)) // int_str(abs(exponent))
+        end if
+    end function short_field
+
+    !> Short text of a real (any kind converted to wp) for people: messages, progress and
+    !! summaries. `short_digits` significant digits, trailing zeros dropped; plain from
+    !! 1e-4 to below 1e6 ("0.0625", "120", "0.3333"), else scientific with a lowercase e and
+    !! a two-digit exponent at least ("1.0e-10", "6.92e-24", "1.5e+30", "1.0e-4932"); "0",
+    !! "NaN", "Infinity", "-Infinity". Files keep full digits (their own formats).
     pure function real_str(value) result(text)
         real(wp), intent(in) :: value !! value to format
-        character(len=len_trim(real_field(value))) :: text
-        text = real_field(value)
+        character(len=len_trim(short_field(value))) :: text
+        text = short_field(value)
     end function real_str
 
 end module holosym_status_codes

@@ -308,6 +308,10 @@ module holosym_integrator
         procedure :: reset_statistics => integrator_reset_statistics
     end type constrained_integrator
 
+
+    !> What the off-manifold messages advise.
+    character(len=*), parameter :: onto_manifold = "put it on the manifold with " // &
+        "project_to_manifold (from q and p) or state_from_velocities (from q and dq/dt)"
 contains
 
     !> Set up the integrator for `sys` (its sizes n, m) and the scheme (M, N, G), e.g.
@@ -447,13 +451,13 @@ contains
                 call set_status(status, HOLOSYM_OFF_MANIFOLD, "start state violates the " // &
                     "constraints: max|phi| = " // real_str(position) // " (scaled " // &
                     real_str(scaled_position) // " > tolerance " // &
-                    real_str(tolerance) // "); project it first")
+                    real_str(tolerance) // "); " // onto_manifold)
             else if (scaled_velocity > tolerance) then
                 call set_status(status, HOLOSYM_OFF_MANIFOLD, &
                     "start state violates the hidden " // &
                     "constraint: max|Phi H_p| = " // real_str(velocity) // " (scaled " // &
                     real_str(scaled_velocity) // " > tolerance " // &
-                    real_str(tolerance) // "); project it first")
+                    real_str(tolerance) // "); " // onto_manifold)
             else if (h < epsilon(h) * state_resolution(self, q, p, hp)) then
                 ! Far below the resolution: the step would move nothing, and its equations
                 ! would overflow (1/h) in the real64 parts of the solve.
