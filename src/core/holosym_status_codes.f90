@@ -16,7 +16,7 @@ module holosym_status_codes
     private
 
     public :: holosym_status_t, set_status, status_code_name, code_name_field, int_str, &
-        int_len, real_str, real_field, is_finite, is_nan
+        int_len, real_str, real_field, is_finite, is_nan, is_status_code
 
     !> Success.
     integer, parameter, public :: HOLOSYM_SUCCESS = 0
@@ -130,6 +130,12 @@ contains
         case default;                              name = "unknown status"
         end select
     end function code_name_field
+
+    !> Whether `code` is one of the HOLOSYM_* codes (the table of `code_name_field`).
+    elemental logical function is_status_code(code)
+        integer, intent(in) :: code !! any integer
+        is_status_code = code_name_field(code) /= "unknown status"
+    end function is_status_code
 
     !> Short symbolic name of a status code, e.g. "singular matrix".
     pure function status_code_name(code) result(name)
