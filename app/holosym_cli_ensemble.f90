@@ -10,6 +10,7 @@
 module holosym_cli_ensemble
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
+    use holosym_text_file, only: text_line_t, printable
     use holosym_status_codes, only: holosym_status_t, status_code_name, int_str, real_str, &
         HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
@@ -17,12 +18,13 @@ module holosym_cli_ensemble
     use holosym_ensemble, only: ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
         run_ensemble, check_ensemble, perturbed_states
     use holosym_ensemble_files, only: read_ensemble_states, ensemble_csv_sink, seconds_text
-    use holosym_systems, only: system_source_t, make_source_system
+    use holosym_systems, only: system_source_t, make_source_system, system_choices, &
+        default_links, max_links
     use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
     use holosym_cli_common, only: parsed_command_proceeds, cli_argument_t, split_option, &
         option_value, parse_integer, parse_integer_in, parse_real, fail, csv_real, &
         join_lines, default_orders, EXIT_OK, EXIT_FAILURE
-    use holosym_output, only: output_t, make_directories
+    use holosym_output, only: output_t, make_directories, same_file
     implicit none
     private
 
@@ -87,7 +89,13 @@ contains
             "  --seed N        generator seed                               [1]", &
             "", &
             "Options:", &
-            "  --system NAME   " // "pendulum, linkage or planar               [pendulum]", &
+            "  --system NAME   built-in system                              [pendulum]", &
+            "                  (" // system_choices // ")", &
+            "  --links K       links of --system chain, 1 to " // int_str(max_links) // &
+            "         [" // int_str(default_links) // "]", &
+            "  --model FILE    the system of a model file instead of --system", &
+            "                  (docs/models.md)", &
+            "  --set NAME=X    set parameter NAME of the model to X (repeatable)", &
             "  --M, --N, --G   the scheme: M 1..30, N 0..30, G N+1..64      [2, M-1, max(M,N)+1]", &
             "  --h REAL        step size of rows without their own h        [0.0625]", &
             "  --T REAL        final time of rows without their own T       [10]", &
@@ -222,6 +230,7 @@ contains
         end if
         if (len(config%samples) > 0 .and. .not. every_given) config%every = 1
         if (.not. timing_given) config%timing = timing_name(config%output)
+        if (status%ok()) call check_distinct_files(config, status)
     contains
         subroutine require(condition, bound)
             logical, intent(in) :: condition
@@ -230,6 +239,32 @@ contains
                 " must be " // bound // "; got '" // value // "'")
         end subroutine require
     end subroutine parse_ensemble_options
+
+    !> No two of --output, --timing, --samples and --states may name the same file (the
+    !! same path, or the same file under two names: `same_file`). Failure:
+    !! HOLOSYM_INVALID_ARGUMENT naming both options.
+    subroutine check_distinct_files(config, status)
+        type(ensemble_config_t), intent(in) :: config !! the parsed options
+        type(holosym_status_t), intent(inout) :: status !! outcome
+        character(len=*), parameter :: options(4) = [character(len=9) :: "--output", &
+            "--timing", "--samples", "--states"]
+        type(text_line_t) :: paths(4)
+        integer :: i, j
+        paths(1)%text = config%output
+        paths(2)%text = config%timing
+        paths(3)%text = config%samples
+        paths(4)%text = config%states
+        do i = 1, size(paths)
+            do j = i + 1, size(paths)
+                if (len(paths(i)%text) == 0 .or. len(paths(j)%text) == 0) cycle
+                if (.not. same_file(paths(i)%text, paths(j)%text)) cycle
+                call fail(status, "options " // trim(options(i)) // " '" // &
+                    printable(paths(i)%text) // "' and " // trim(options(j)) // " '" // &
+                    printable(paths(j)%text) // "' name the same file; give each its own")
+                return
+            end do
+        end do
+    end subroutine check_distinct_files
 
     !> Whether T/h (T >= 0, h > 0, both finite) rounds to 1 .. huge(1) steps, or T = 0;
     !! decided on the exponents before dividing, so nothing overflows.
@@ -316,7 +351,7 @@ contains
         type(ensemble_settings_t) :: settings
         type(ensemble_result_t), allocatable :: results(:)
         type(ensemble_csv_sink) :: sink
-        type(holosym_status_t) :: status
+        type(holosym_status_t) :: status, finished
         real(wp), allocatable :: q0(:), p0(:)
         logical, allocatable :: skip(:)
         character(len=:), allocatable :: description, note, identity
@@ -379,11 +414,14 @@ contains
             if (.not. status%ok()) exit_code = EXIT_FAILURE
             return
         end if
-        if (.not. status%ok()) write (err_unit, '(a)') "holosym ensemble: error: " // &
-            status_code_name(status%code) // ": " // status%message
-        call sink%finish(status)
-        if (.not. status%ok()) then
-            write (err_unit, '(a)') "holosym ensemble: error: " // status%message
+        ! A run the sink halted (a write failed) reports the sink's failure alone.
+        call sink%finish(finished)
+        if (.not. finished%ok()) then
+            write (err_unit, '(a)') "holosym ensemble: error: " // finished%message
+            return
+        else if (.not. status%ok()) then
+            write (err_unit, '(a)') "holosym ensemble: error: " // &
+                status_code_name(status%code) // ": " // status%message
             return
         end if
         call system_clock(clock_end)

@@ -450,10 +450,13 @@ contains
             if (out%failed()) call out%close(written)
         end if
         if (.not. written%ok()) then
-            writer%summary%rows = 0
+            ! The rows that reached the file: complete lines written, less the header.
+            writer%summary%rows = int(max(writer%sink%lines_written - 1, 0_int64))
             status%code = HOLOSYM_INVALID_ARGUMENT
             status%message = "writing the CSV failed after " // &
-                int_str(writer%summary%steps_done) // " steps: " // written%message
+                int_str(writer%summary%steps_done) // " steps: " // written%message // &
+                "; " // int_str(writer%summary%rows) // " complete rows reached " // &
+                writer%sink%name
         end if
         call write_summary(err_unit, writer%summary)
         if (present(summary)) summary = writer%summary

@@ -19,15 +19,16 @@
 !! holosym_posix.c.
 module holosym_output
     use, intrinsic :: iso_c_binding, only: c_int, c_long, c_char, c_null_char
-    use, intrinsic :: iso_fortran_env, only: error_unit
+    use, intrinsic :: iso_fortran_env, only: error_unit, int64
     use holosym_status_codes, only: holosym_status_t, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
-    use holosym_text_file, only: text_t => text_line_t, read_text_lines, TEXT_NOT_ACCEPTED
+    use holosym_text_file, only: text_t => text_line_t, read_text_lines, TEXT_NOT_ACCEPTED, &
+        error_text
     implicit none
     private
 
     public :: output_t, open_output, standard_output, make_directories, error_text
     public :: keep_standard_streams, remove_file, run_program, command_text, text_t
-    public :: read_text_file, append_text, write_lines
+    public :: read_text_file, append_text, write_lines, same_file
 
     !> Bytes collected before a write(2).
     integer, parameter :: buffer_size = 65536
@@ -40,6 +41,9 @@ module holosym_output
         integer :: used = 0               !! bytes in `buffer`
         integer :: error = 0              !! errno of the first failure, 0 if none
         logical :: owned = .false.        !! opened here: `close` closes the descriptor
+        !> Complete lines that reached the output (a write that failed may have left part
+        !! of a line after them).
+        integer(int64) :: lines_written = 0
     contains
         !> Append a line (the text and a newline).
         procedure :: line => output_line
@@ -58,12 +62,20 @@ module holosym_output
             integer(c_int), intent(out) :: fd
         end function c_open_write
 
-        integer(c_int) function c_write_all(fd, buffer, n) bind(C, name="holosym_write_all")
+        integer(c_int) function c_write_all(fd, buffer, n, done) &
+            bind(C, name="holosym_write_all")
             import :: c_int, c_char, c_long
             integer(c_int), value :: fd
             character(kind=c_char), intent(in) :: buffer(*)
             integer(c_long), value :: n
+            integer(c_long), intent(out) :: done
         end function c_write_all
+
+        integer(c_int) function c_same_file(a, b) bind(C, name="holosym_same_file")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: a(*)
+            character(kind=c_char), intent(in) :: b(*)
+        end function c_same_file
 
         integer(c_int) function c_sync(fd) bind(C, name="holosym_sync")
             import :: c_int
@@ -80,13 +92,6 @@ module holosym_output
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: path(*)
         end function c_make_directories
-
-        subroutine c_error_text(error, buffer, size) bind(C, name="holosym_error_text")
-            import :: c_int, c_char
-            integer(c_int), value :: error
-            character(kind=c_char), intent(out) :: buffer(*)
-            integer(c_int), value :: size
-        end subroutine c_error_text
 
         subroutine c_keep_standard_streams() bind(C, name="holosym_keep_standard_streams")
         end subroutine c_keep_standard_streams
@@ -171,12 +176,17 @@ contains
     subroutine output_flush(self)
         class(output_t), intent(inout) :: self
         integer(c_int) :: error
+        integer(c_long) :: done
+        integer :: k
         if (self%used == 0 .or. self%error /= 0) return
         if (self%fd < 0) then
             self%error = 9  ! EBADF
             return
         end if
-        error = c_write_all(self%fd, self%buffer, int(self%used, c_long))
+        error = c_write_all(self%fd, self%buffer, int(self%used, c_long), done)
+        do k = 1, int(done)
+            if (self%buffer(k:k) == new_line("a")) self%lines_written = self%lines_written + 1
+        end do
         self%used = 0
         if (error /= 0) self%error = int(error)
     end subroutine output_flush
@@ -228,6 +238,13 @@ contains
                 error_text(int(error))
         end if
     end subroutine make_directories
+
+    !> Whether the paths `a` and `b` name one file: the same text, the same device and
+    !! inode when both exist, else the same name in the same resolved directory.
+    logical function same_file(a, b)
+        character(len=*), intent(in) :: a, b !! the paths
+        same_file = c_same_file(c_text(a), c_text(b)) /= 0
+    end function same_file
 
     !> Remove the file `path` (unlink(2), without a shell); a missing file is no error.
     !! Failure: HOLOSYM_INVALID_ARGUMENT naming the path and the system's reason.
@@ -389,19 +406,6 @@ contains
         write (buffer, '(i0)') value
         text = trim(buffer)
     end function int_text
-
-    !> The system's text for an errno value.
-    function error_text(error) result(text)
-        integer, intent(in) :: error !! errno value
-        character(len=:), allocatable :: text
-        character(kind=c_char, len=256) :: buffer
-        integer :: ends
-        buffer = ""
-        call c_error_text(int(error, c_int), buffer, int(len(buffer), c_int))
-        ends = index(buffer, c_null_char)
-        if (ends == 0) ends = len(buffer) + 1
-        text = buffer(:ends - 1)
-    end function error_text
 
     !> Keep closed standard output and error from being reused by files, and make a
     !! file-size limit fail a write instead of killing the process (see

@@ -2,13 +2,15 @@
  * are seen (write(2), fsync(2) and close(2) results; gfortran's own units drop them),
  * directories created and files removed without a shell (mkdir(2), unlink(2)), other
  * programs run without a shell (posix_spawnp(3): each argument reaches the program as
- * given), error texts, and the standard streams kept on their descriptors. Every
- * function returns 0 or an errno value. */
+ * given), and the standard streams kept on their descriptors (error texts are the
+ * library's: src/core/holosym_files.c). Every function returns 0 or an errno value. */
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <signal.h>
 #include <spawn.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -33,12 +35,36 @@ int holosym_open_write(const char *path, int *fd)
     return 0;
 }
 
-/* Write all n bytes, retrying partial writes and interrupted calls. */
-int holosym_write_all(int fd, const char *buffer, long n)
+/* `path` with its directory resolved (realpath(3)) into `resolved` (PATH_MAX bytes): the
+ * file itself need not exist. 0 when the directory cannot be resolved. */
+static int resolve_in_directory(const char *path, char *resolved)
 {
-    long done = 0;
-    while (done < n) {
-        ssize_t w = write(fd, buffer + done, (size_t)(n - done));
+    char directory[PATH_MAX], real_directory[PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    const char *name = slash ? slash + 1 : path;
+    size_t length = slash ? (size_t)(slash - path) : 1;
+    if (length >= sizeof directory)
+        return 0;
+    if (slash == NULL)
+        memcpy(directory, ".", 2);
+    else if (length == 0)
+        memcpy(directory, "/", 2);
+    else {
+        memcpy(directory, path, length);
+        directory[length] = '\0';
+    }
+    if (realpath(directory, real_directory) == NULL)
+        return 0;
+    return snprintf(resolved, PATH_MAX, "%s/%s", real_directory, name) < PATH_MAX;
+}
+
+/* Write all n bytes, retrying partial writes and interrupted calls; the bytes that
+ * reached the file in *done (all n on success, fewer on a failure). */
+int holosym_write_all(int fd, const char *buffer, long n, long *done)
+{
+    *done = 0;
+    while (*done < n) {
+        ssize_t w = write(fd, buffer + *done, (size_t)(n - *done));
         if (w < 0) {
             if (errno == EINTR)
                 continue;
@@ -46,9 +72,25 @@ int holosym_write_all(int fd, const char *buffer, long n)
         }
         if (w == 0)
             return EIO;
-        done += (long)w;
+        *done += (long)w;
     }
     return 0;
+}
+
+/* Whether two paths name one file (1) or not (0): the same string; when both exist, the
+ * same device and inode (links, "./x" and "x", another spelling of the directory);
+ * otherwise the same file name in the same (resolved) directory. */
+int holosym_same_file(const char *a, const char *b)
+{
+    struct stat info_a, info_b;
+    char resolved_a[PATH_MAX], resolved_b[PATH_MAX];
+    if (strcmp(a, b) == 0)
+        return 1;
+    if (stat(a, &info_a) == 0 && stat(b, &info_b) == 0)
+        return info_a.st_dev == info_b.st_dev && info_a.st_ino == info_b.st_ino;
+    if (!resolve_in_directory(a, resolved_a) || !resolve_in_directory(b, resolved_b))
+        return 0;
+    return strcmp(resolved_a, resolved_b) == 0;
 }
 
 /* Force the data of a regular file to its device (a full file system may report
@@ -171,17 +213,6 @@ int holosym_run_program(const char *args, int count, const char *output, int *ex
     else if (WIFSIGNALED(wait_status))
         *exit_code = 128 + WTERMSIG(wait_status);
     return 0;
-}
-
-/* The text of an errno value, into buffer (NUL-terminated, at most size bytes). */
-void holosym_error_text(int error, char *buffer, int size)
-{
-    const char *text;
-    if (size <= 0)
-        return;
-    text = strerror(error);
-    strncpy(buffer, text ? text : "unknown error", (size_t)size - 1);
-    buffer[size - 1] = '\0';
 }
 
 /* A closed standard output or error (descriptor 1 or 2) is reopened on /dev/null for

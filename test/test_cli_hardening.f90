@@ -229,6 +229,14 @@ contains
         call check(error, result%exit_code == exit_failure .and. clean(result) .and. &
             any_line_contains(result%err, "File too large"), "a file-size limit: exit " // &
             int_str(result%exit_code) // ": " // first_error(result))
+        ! The rows reported are those that reached the file (complete lines less the header).
+        call shell_with_exe("ulimit -f 8 && EXE simulate --steps 400 --output " // &
+            shell_quote(path) // " 2> " // shell_quote(path // ".err") // " >/dev/null; " // &
+            "rows=$(( $(wc -l < " // shell_quote(path) // ") - 1 )); grep -c " // &
+            """; $rows complete rows reached"" " // shell_quote(path // ".err"), result)
+        call check(error, size(result%out) == 1, "a file-size limit: no output")
+        if (size(result%out) == 1) call check(error, result%out(1)%text == "1", &
+            "a file-size limit: the rows in the file are reported: " // first_error(result))
         ! 2 blocks: 1 KiB in sh's units (LLVM's OpenMP runtime needs 1 KiB of shared memory
         ! file to start), 2 KiB in bash's; table2.csv has 2150 bytes.
         call shell_with_exe("ulimit -f 2 && EXE tables --quick --Mmax 1 --Nmax 1 --csv " // &

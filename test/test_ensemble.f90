@@ -52,7 +52,15 @@ contains
             new_test("cli_kill_and_resume_equals_uninterrupted", cli_kill_and_resume), &
             new_test("cli_bad_states_files_refused", cli_bad_states), &
             new_test("cli_outputs_never_overwritten", cli_outputs_kept), &
-            new_test("cli_help_and_usage", cli_help)]
+            new_test("cli_help_and_usage", cli_help), &
+            new_test("cli_one_run_at_a_time_on_a_results_file", cli_one_run_at_a_time), &
+            new_test("cli_outputs_naming_one_file_refused", cli_outputs_naming_one_file), &
+            new_test("cli_resumed_rows_checked_field_by_field", cli_resumed_rows_checked), &
+            new_test("cli_crlf_and_invisible_characters", &
+                     cli_line_ends_and_invisible_characters), &
+            new_test("cli_ten_digit_ids", cli_ten_digit_ids), &
+            new_test("cli_open_failures_name_the_cause", cli_open_failures_name_the_cause), &
+            new_test("cli_help_lists_every_system", cli_help_lists_every_system)]
     end function ensemble_tests
 
     ! ------------------------------------------------------------------ helpers
@@ -588,7 +596,7 @@ contains
         call ensemble("--perturb 4 --T 0.5 --quiet --output " // &
             scratch_path("no_such_dir/out.csv"), result)
         call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
-            "cannot write results file"), "unwritable output: " // errors_of(result))
+            "cannot create results file"), "unwritable output: " // errors_of(result))
         states = scratch_path("ens_off.csv")
         call write_lines(states, [character(len=40) :: "1,0,0.6,0.8,0.6,0,0.1"])
         call ensemble("--states " // states // " --T 0.5 --quiet --project --output " // &
@@ -615,5 +623,294 @@ contains
         call check(error, result%exit_code == 2 .and. any_line_contains(result%err, &
             "--every needs --samples"), "every needs samples: " // errors_of(result))
     end subroutine cli_help
+
+    ! ------------------------------------------------------------------ files, strictly
+
+    !> A shell command line with `exe` replaced by the quoted executable.
+    function with_exe(line) result(command)
+        character(len=*), intent(in) :: line
+        character(len=:), allocatable :: command
+        integer :: at
+        command = line
+        at = index(command, "EXE")
+        do while (at > 0)
+            command = command(:at - 1) // shell_quote(holosym_executable()) // command(at + 3:)
+            at = index(command, "EXE")
+        end do
+    end function with_exe
+
+    !> One run at a time on a results file: while another process holds the file's lock
+    !! (flock(1), or a run in progress), a second run is refused, naming the file, and
+    !! changes nothing; the first run completes its file.
+    subroutine cli_one_run_at_a_time(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: lines(:)
+        character(len=:), allocatable :: output, digest, run
+        integer :: ios
+        output = scratch_path("ens_lock.csv")
+        run = "EXE ensemble --perturb 4 --T 0.5 --quiet --resume --output " // &
+            shell_quote(output)
+        call run_shell("rm -f " // shell_quote(output), result)
+        call run_shell(with_exe(run), result)
+        call check(error, result%exit_code == 0, "first run: " // errors_of(result))
+        if (allocated(error)) return
+        digest = file_sha256(output)
+        call run_shell(with_exe("flock " // shell_quote(output) // " " // run), result)
+        call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+            "'" // output // "' is in use: another run holds its lock"), &
+            "a resume while the lock is held: " // errors_of(result))
+        call check(error, file_sha256(output) == digest, "the locked file is unchanged")
+        ! A run in progress holds the lock from its start to its end.
+        output = scratch_path("ens_lock_live.csv")
+        run = "EXE ensemble --system linkage --perturb 24 --T 20 --threads 1 --quiet " // &
+            "--output " // shell_quote(output)
+        call run_shell("rm -f " // shell_quote(output), result)
+        call run_shell(with_exe(run // " & first=$!; while [ ! -s " // shell_quote(output) // &
+            " ]; do sleep 0.01; done; " // run // " --resume; echo second=$?; wait $first; " // &
+            "echo first=$?"), result)
+        call check(error, any_line_contains(result%out, "second=1") .and. &
+            any_line_contains(result%err, "another run holds its lock"), &
+            "a resume during a run is refused: " // errors_of(result))
+        call check(error, any_line_contains(result%out, "first=0"), "the first run " // &
+            "completes: " // errors_of(result))
+        call read_lines(output, lines, ios)
+        call check(error, ios == 0 .and. size(lines) == 2 + 24, "one row per trajectory: " // &
+            int_str(size(lines) - 2) // " rows")
+    end subroutine cli_one_run_at_a_time
+
+    !> Two of --output, --timing, --samples and --states naming one file (the same text,
+    !! another spelling, a link): refused with exit 2 before anything is read or written.
+    subroutine cli_outputs_naming_one_file(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        character(len=:), allocatable :: states, link, digest
+        states = scratch_path("ens_same_states.csv")
+        link = scratch_path("ens_same_link.csv")
+        call write_lines(states, [character(len=80) :: "1,0,0.6,0.8,0.6,0,0"])
+        digest = file_sha256(states)
+        call run_shell("rm -f " // shell_quote(link) // " && ln -s " // &
+            shell_quote("ens_same_states.csv") // " " // shell_quote(link), result)
+        call refused("--perturb 2 --output " // scratch_path("ens_same.csv") // " --timing " &
+            // scratch_path("ens_same.csv"), "--timing")
+        call refused("--perturb 2 --output " // scratch_path("ens_same.csv") // " --timing " &
+            // scratch_path("./ens_same.csv"), "--timing")
+        call refused("--states " // states // " --resume --output " // states, "--states")
+        call refused("--states " // states // " --resume --output " // link, "--states")
+        call refused("--perturb 2 --output " // scratch_path("ens_same.csv") // " --samples " &
+            // scratch_path("ens_same.csv"), "--samples")
+        call check(error, file_sha256(states) == digest, "the states file is unchanged")
+        call check(error, .not. file_exists(scratch_path("ens_same.csv")), "no results file")
+    contains
+        subroutine refused(line, option)
+            character(len=*), intent(in) :: line, option
+            call ensemble(line, result)
+            call check(error, result%exit_code == 2 .and. any_line_contains(result%err, &
+                "name the same file") .and. any_line_contains(result%err, option), &
+                line // ": " // errors_of(result))
+        end subroutine refused
+    end subroutine cli_outputs_naming_one_file
+
+    !> Every field of a resumed row is checked: a status code outside the library's table,
+    !! counts out of range, a non-number: refused with the line and the field, the file
+    !! unchanged.
+    subroutine cli_resumed_rows_checked(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: lines(:)
+        character(len=:), allocatable :: output, args
+        integer :: ios
+        output = scratch_path("ens_rows.csv")
+        args = "--perturb 3 --T 0.5 --quiet --resume --output " // output
+        call run_shell("rm -f " // shell_quote(output), result)
+        call ensemble(args, result)
+        call check(error, result%exit_code == 0, "first run: " // errors_of(result))
+        call read_lines(output, lines, ios)
+        call check(error, ios == 0 .and. size(lines) == 5, "three rows")
+        if (allocated(error)) return
+        call refused(2, "77", "field 2 (code) must be a holosym status code")
+        call refused(2, "-12", "field 2 (code)")
+        call refused(2, "1.5", "field 2 (code)")
+        call refused(3, "-1", "field 3 (steps)")
+        call refused(4, "9", "field 4 (steps_done) must be an integer from 0 to steps = 8")
+        call refused(5, "x", "field 5 (q1) must be a finite number; got 'x'")
+        call refused(11, "-1", "field 11 (max_energy_error) must be a number >= 0")
+        call refused(14, "-3", "field 14 (newton_iterations)")
+        call refused(1, "12345678901", "field 1 (id) must be an integer from -2147483647")
+    contains
+        subroutine refused(field, value, fragment)
+            integer, intent(in) :: field
+            character(len=*), intent(in) :: value, fragment
+            type(text_line_t), allocatable :: changed(:)
+            character(len=:), allocatable :: digest
+            character(len=1000) :: texts(5)
+            integer :: k
+            if (allocated(error)) return
+            changed = lines
+            changed(3)%text = with_field(lines(3)%text, field, value)
+            do k = 1, 5
+                texts(k) = changed(k)%text
+            end do
+            call write_lines(output, texts)
+            digest = file_sha256(output)
+            call ensemble(args, result)
+            call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+                ":3: " // fragment), "field " // int_str(field) // " = " // value // ": " // &
+                errors_of(result))
+            call check(error, file_sha256(output) == digest, "field " // int_str(field) // &
+                ": the file is unchanged")
+        end subroutine refused
+    end subroutine cli_resumed_rows_checked
+
+    !> `row` with its comma-separated field k replaced by `value`.
+    function with_field(row, k, value) result(changed)
+        character(len=*), intent(in) :: row, value
+        integer, intent(in) :: k
+        character(len=:), allocatable :: changed
+        integer :: first, last, j
+        first = 1
+        do j = 1, k - 1
+            first = first + index(row(first:), ",")
+        end do
+        last = index(row(first:), ",")
+        if (last == 0) then
+            last = len(row) + 1
+        else
+            last = first + last - 1
+        end if
+        changed = row(:first - 1) // value // row(last:)
+    end function with_field
+
+    !> CR LF line ends are accepted in states and results files; a carriage return or a
+    !! tab inside a value is shown as \r or \t in the message; a resumed file of another
+    !! run shows where its first line differs.
+    subroutine cli_line_ends_and_invisible_characters(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: lines(:)
+        character(len=:), allocatable :: states, output, good
+        integer :: ios
+        good = "0,0.70710678118654752440084436210485,0.70710678118654752440084436210485," // &
+            "0.6,0,0"
+        states = scratch_path("ens_crlf.csv")
+        output = scratch_path("ens_crlf_out.csv")
+        call run_shell("rm -f " // shell_quote(output) // "; printf 'id,q1,q2,q3,p1,p2,p3" // &
+            "\r\n1," // good // "\r\n2," // good // "\r\n' > " // shell_quote(states), result)
+        call ensemble("--states " // states // " --T 0.5 --quiet --output " // output, result)
+        call read_lines(output, lines, ios)
+        call check(error, result%exit_code == 0 .and. ios == 0 .and. size(lines) == 4, &
+            "CR LF states: " // errors_of(result))
+        if (allocated(error)) return
+        call run_shell("sed -i 's/$/\r/' " // shell_quote(output), result)
+        call ensemble("--states " // states // " --T 0.5 --quiet --resume --output " // &
+            output, result)
+        call check(error, result%exit_code == 0, "a CR LF results file resumed: " // &
+            errors_of(result))
+        call ensemble("--states " // states // " --T 0.25 --quiet --resume --output " // &
+            output, result)
+        call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+            "(they differ from character"), "another run's file: " // errors_of(result))
+        call run_shell("printf '1,0\r5," // good(3:) // "\n' > " // shell_quote(states), &
+                       result)
+        call ensemble("--states " // states // " --quiet --output " // &
+            scratch_path("ens_cr_inside.csv"), result)
+        call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+            "got '0\r5'"), "a CR inside a field shown as \r: " // errors_of(result))
+        call run_shell("printf '1\t," // good // "\n' > " // shell_quote(states), result)
+        call ensemble("--states " // states // " --quiet --output " // &
+            scratch_path("ens_tab_inside.csv"), result)
+        call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+            "got '1\t'"), "a tab shown as \t: " // errors_of(result))
+    end subroutine cli_line_ends_and_invisible_characters
+
+    !> Ids of up to 10 digits (any default integer but -2147483648) in states and results
+    !! files, resumed alike; beyond, refused naming the limit.
+    subroutine cli_ten_digit_ids(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: lines(:)
+        character(len=:), allocatable :: states, output
+        character(len=*), parameter :: good = ",0,0.70710678118654752440084436210485," // &
+            "0.70710678118654752440084436210485,0.6,0,0"
+        integer :: ios
+        states = scratch_path("ens_ids.csv")
+        output = scratch_path("ens_ids_out.csv")
+        call run_shell("rm -f " // shell_quote(output), result)
+        call write_lines(states, [character(len=120) :: "2147483647" // good, &
+            "1234567890" // good, "-2147483647" // good])
+        call ensemble("--states " // states // " --T 0.5 --quiet --output " // output, result)
+        call read_lines(output, lines, ios)
+        call check(error, result%exit_code == 0 .and. ios == 0 .and. size(lines) == 5, &
+            "10-digit ids: " // errors_of(result))
+        if (allocated(error)) return
+        call check(error, index(lines(3)%text, "-2147483647,") == 1 .and. &
+            index(lines(4)%text, "1234567890,") == 1 .and. &
+            index(lines(5)%text, "2147483647,") == 1, "rows sorted by id")
+        call ensemble("--states " // states // " --T 0.5 --quiet --resume --output " // &
+            output, result)
+        call check(error, result%exit_code == 0, "resumed: " // errors_of(result))
+        call write_lines(states, [character(len=120) :: "2147483648" // good])
+        call ensemble("--states " // states // " --quiet --output " // &
+            scratch_path("ens_ids_big.csv"), result)
+        call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+            "must be an integer from -2147483647 to 2147483647; got '2147483648'"), &
+            "an 11-digit id: " // errors_of(result))
+    end subroutine cli_ten_digit_ids
+
+    !> A file that cannot be opened is named with the system's reason; a start that fails
+    !! (the timing log) leaves no results file; a write failure during the run is reported
+    !! alone, without the halt that it caused.
+    subroutine cli_open_failures_name_the_cause(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        character(len=:), allocatable :: output, plain
+        output = scratch_path("ens_cause.csv")
+        plain = scratch_path("ens_plain_file")
+        call run_shell("rm -f " // shell_quote(output) // " && touch " // shell_quote(plain), &
+                       result)
+        call ensemble("--perturb 2 --T 0.5 --quiet --output " // &
+            scratch_path("no_such_dir/x.csv"), result)
+        call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+            "no_such_dir/x.csv': No such file or directory"), "missing directory: " // &
+            errors_of(result))
+        call ensemble("--perturb 2 --T 0.5 --quiet --output " // plain // "/x.csv", result)
+        call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+            "Not a directory"), "a file as directory: " // errors_of(result))
+        call ensemble("--perturb 2 --T 0.5 --quiet --output " // output // " --timing " // &
+            scratch_path("no_such_dir/t.csv"), result)
+        call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+            "timing log") .and. any_line_contains(result%err, "No such file or directory"), &
+            "timing log in a missing directory: " // errors_of(result))
+        call check(error, .not. file_exists(output), "no results file after a failed start")
+        call run_shell(with_exe("ulimit -f 2 && EXE ensemble --system linkage --perturb 8 " &
+            // "--T 1 --quiet --output " // shell_quote(output)), result)
+        call check(error, result%exit_code == 1 .and. any_line_contains(result%err, &
+            "File too large") .and. .not. any_line_contains(result%err, "observer") .and. &
+            .not. any_line_contains(result%err, "collector"), "a write failure alone: " // &
+            errors_of(result))
+    end subroutine cli_open_failures_name_the_cause
+
+    !> The help lists the systems that --system accepts, in the words of its message.
+    subroutine cli_help_lists_every_system(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: result
+        character(len=:), allocatable :: choices
+        integer :: at, k
+        call ensemble("--perturb 2 --output x.csv --system frob", result)
+        call check(error, result%exit_code == 2 .and. size(result%err) > 0, &
+            "unknown system: " // errors_of(result))
+        if (allocated(error)) return
+        at = index(result%err(1)%text, "choose ")
+        call check(error, at > 0, "the message lists the systems: " // errors_of(result))
+        if (allocated(error)) return
+        choices = result%err(1)%text(at + len("choose "):)
+        call ensemble("--help", result)
+        call check(error, any_line_contains(result%out, choices), "the help lists '" // &
+            choices // "'")
+        do k = 1, size(result%out)
+            if (index(result%out(k)%text, "--model FILE") > 0) exit
+        end do
+        call check(error, k <= size(result%out), "the help names --model")
+    end subroutine cli_help_lists_every_system
 
 end module test_ensemble

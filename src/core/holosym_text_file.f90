@@ -6,22 +6,25 @@
 !! program on them even when iostat is given. The files of the ensemble (results, timing
 !! log, samples) and of `trajectory_writer` go through `text_file_t`.
 !!
-!! The C library does not give its error number to Fortran portably, so a failure says
-!! which file and which operation, not the system's reason.
+!! Every failure names the file, the operation and the system's reason (the text of the
+!! error number, which the C helpers of src/core/holosym_files.c return).
+!!
+!! `file_lock_t` holds an exclusive lock on a file (flock) for as long as a run writes it,
+!! so that two runs cannot write the same file at once.
 !!
 !! Text files are read by `read_text_lines`, which refuses what is not text (a NUL or
 !! other control byte, as /dev/zero or /dev/full give) and lines beyond
 !! `max_text_line_length`, so that no input can make a reader loop or exhaust memory.
 module holosym_text_file
     use, intrinsic :: iso_c_binding, only: c_ptr, c_null_ptr, c_associated, c_char, c_int, &
-        c_size_t, c_null_char
+        c_long, c_long_long, c_null_char
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_status_codes, only: int_str
     implicit none
     private
 
-    public :: text_file_t, text_line_t, read_text_lines, max_text_line_length, &
-        control_position
+    public :: text_file_t, text_line_t, file_lock_t, read_text_lines, error_text, &
+        printable, max_text_line_length, control_position
     public :: TEXT_CANNOT_OPEN, TEXT_CANNOT_READ, TEXT_NOT_ACCEPTED
 
     !> Longest line `read_text_lines` accepts (1 MiB).
@@ -55,42 +58,91 @@ module holosym_text_file
         procedure :: failed => text_failed
     end type text_file_t
 
+    !> An exclusive lock on a file (flock), held from `acquire` to `release` or the end of
+    !! the process.
+    type :: file_lock_t
+        integer(c_int), private :: fd = -1
+    contains
+        !> Open the file (or create it) and lock it, not waiting.
+        procedure :: acquire => lock_acquire
+        !> Cut the locked file to a length.
+        procedure :: truncate => lock_truncate
+        !> Release the lock.
+        procedure :: release => lock_release
+        !> Whether the lock is held.
+        procedure :: held => lock_held
+    end type file_lock_t
+
     interface
-        type(c_ptr) function c_fopen(path, mode) bind(C, name="fopen")
-            import :: c_ptr, c_char
+        integer(c_int) function c_stream_open(path, mode, stream) &
+            bind(C, name="holosym_stream_open")
+            import :: c_ptr, c_char, c_int
             character(kind=c_char), intent(in) :: path(*)
             character(kind=c_char), intent(in) :: mode(*)
-        end function c_fopen
+            type(c_ptr), intent(out) :: stream
+        end function c_stream_open
 
-        integer(c_size_t) function c_fwrite(buffer, size, count, stream) &
-            bind(C, name="fwrite")
-            import :: c_ptr, c_char, c_size_t
+        integer(c_int) function c_stream_write(stream, buffer, n) &
+            bind(C, name="holosym_stream_write")
+            import :: c_ptr, c_char, c_int, c_long
+            type(c_ptr), value :: stream
             character(kind=c_char), intent(in) :: buffer(*)
-            integer(c_size_t), value :: size, count
-            type(c_ptr), value :: stream
-        end function c_fwrite
+            integer(c_long), value :: n
+        end function c_stream_write
 
-        integer(c_int) function c_fflush(stream) bind(C, name="fflush")
+        integer(c_int) function c_stream_flush(stream) bind(C, name="holosym_stream_flush")
             import :: c_ptr, c_int
             type(c_ptr), value :: stream
-        end function c_fflush
+        end function c_stream_flush
 
-        integer(c_int) function c_fclose(stream) bind(C, name="fclose")
+        integer(c_int) function c_stream_close(stream) bind(C, name="holosym_stream_close")
             import :: c_ptr, c_int
             type(c_ptr), value :: stream
-        end function c_fclose
+        end function c_stream_close
+
+        integer(c_int) function c_lock_file(path, create, fd) bind(C, name="holosym_lock_file")
+            import :: c_char, c_int
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int), value :: create
+            integer(c_int), intent(out) :: fd
+        end function c_lock_file
+
+        integer(c_int) function c_unlock_file(fd) bind(C, name="holosym_unlock_file")
+            import :: c_int
+            integer(c_int), value :: fd
+        end function c_unlock_file
+
+        integer(c_int) function c_truncate_file(fd, length) &
+            bind(C, name="holosym_truncate_file")
+            import :: c_int, c_long_long
+            integer(c_int), value :: fd
+            integer(c_long_long), value :: length
+        end function c_truncate_file
+
+        integer(c_int) function c_lock_is_held(error) bind(C, name="holosym_lock_is_held")
+            import :: c_int
+            integer(c_int), value :: error
+        end function c_lock_is_held
+
+        subroutine c_error_text(error, buffer, size) bind(C, name="holosym_error_text")
+            import :: c_int, c_char
+            integer(c_int), value :: error
+            character(kind=c_char), intent(out) :: buffer(*)
+            integer(c_int), value :: size
+        end subroutine c_error_text
     end interface
 
 contains
 
     !> Open `path` for writing: `mode` "new" (refused when the file exists), "replace"
     !! (created or truncated) or "append" (created when missing). False, with `failure`
-    !! set, when it cannot be opened. A file still open is closed first.
+    !! set to the reason, when it cannot be opened. A file still open is closed first.
     logical function text_open(self, path, mode) result(ok)
         class(text_file_t), intent(inout) :: self
         character(len=*), intent(in) :: path !! the file
         character(len=*), intent(in) :: mode !! "new", "replace" or "append"
         character(len=:), allocatable :: c_mode
+        integer(c_int) :: error
         logical :: closed
         if (c_associated(self%stream)) closed = self%close()
         self%path = path
@@ -103,14 +155,14 @@ contains
         case default
             c_mode = "w"
         end select
-        self%stream = c_fopen(path // c_null_char, c_mode // c_null_char)
-        ok = c_associated(self%stream)
-        if (.not. ok) then
-            if (mode == "new") then
-                self%failure = "cannot create '" // path // "' (it may exist already)"
-            else
-                self%failure = "cannot open '" // path // "' for writing"
-            end if
+        error = c_stream_open(path // c_null_char, c_mode // c_null_char, self%stream)
+        ok = error == 0
+        if (ok) return
+        self%stream = c_null_ptr
+        if (mode == "new") then
+            self%failure = "cannot create '" // path // "': " // error_text(error)
+        else
+            self%failure = "cannot open '" // path // "' for writing: " // error_text(error)
         end if
     end function text_open
 
@@ -118,37 +170,87 @@ contains
     subroutine text_line(self, text)
         class(text_file_t), intent(inout) :: self
         character(len=*), intent(in) :: text !! the line, without its end
-        logical :: written
+        integer(c_int) :: error
         if (.not. c_associated(self%stream) .or. self%failed()) return
-        written = .true.
-        if (len(text) > 0) written = c_fwrite(text, 1_c_size_t, int(len(text), c_size_t), &
-                                              self%stream) == int(len(text), c_size_t)
-        if (written) written = c_fwrite(new_line("a"), 1_c_size_t, 1_c_size_t, &
-                                        self%stream) == 1_c_size_t
-        if (.not. written) self%failure = "cannot write '" // self%path // &
-            "' (a full disk or device, or a file-size limit)"
+        error = c_stream_write(self%stream, text // new_line("a"), int(len(text) + 1, c_long))
+        if (error /= 0) self%failure = "cannot write '" // self%path // "': " // &
+            error_text(error)
     end subroutine text_line
 
     !> Push the buffered lines to the file (a failure is kept).
     subroutine text_flush(self)
         class(text_file_t), intent(inout) :: self
+        integer(c_int) :: error
         if (.not. c_associated(self%stream) .or. self%failed()) return
-        if (c_fflush(self%stream) /= 0) self%failure = "cannot write '" // self%path // &
-            "' (a full disk or device, or a file-size limit)"
+        error = c_stream_flush(self%stream)
+        if (error /= 0) self%failure = "cannot write '" // self%path // "': " // &
+            error_text(error)
     end subroutine text_flush
 
     !> Flush and close the file; true when every line written reached it.
     logical function text_close(self) result(ok)
         class(text_file_t), intent(inout) :: self
+        integer(c_int) :: error
         if (.not. allocated(self%failure)) self%failure = ""
         if (c_associated(self%stream)) then
-            call self%flush()
-            if (c_fclose(self%stream) /= 0 .and. .not. self%failed()) self%failure = &
-                "cannot close '" // self%path // "' (a full disk or device?)"
+            error = c_stream_close(self%stream)
+            if (error /= 0 .and. .not. self%failed()) self%failure = "cannot write '" // &
+                self%path // "': " // error_text(error)
             self%stream = c_null_ptr
         end if
         ok = .not. self%failed()
     end function text_close
+
+    !> The system's text of an error number (strerror).
+    function error_text(error) result(text)
+        integer, intent(in) :: error !! an errno value
+        character(len=:), allocatable :: text
+        character(kind=c_char, len=256) :: buffer
+        integer :: ends
+        buffer = ""
+        call c_error_text(int(error, c_int), buffer, int(len(buffer), c_int))
+        ends = index(buffer, c_null_char)
+        if (ends == 0) ends = len(buffer) + 1
+        text = buffer(:ends - 1)
+    end function error_text
+
+    !> Take an exclusive lock on `path` (flock, not waiting) and hold it until `release`;
+    !! with `create` the file is created, and refused when it exists. `error`: 0, or the
+    !! errno value; `held_elsewhere` is true when another open of the file (another run)
+    !! holds the lock. The lock binds only those who take it: this process's own writes
+    !! to the file go on.
+    subroutine lock_acquire(self, path, create, error, held_elsewhere)
+        class(file_lock_t), intent(inout) :: self
+        character(len=*), intent(in) :: path    !! the file
+        logical, intent(in) :: create           !! create it (it must not exist)
+        integer, intent(out) :: error           !! 0 or errno
+        logical, intent(out) :: held_elsewhere  !! another run holds the lock
+        call self%release()
+        error = c_lock_file(path // c_null_char, merge(1_c_int, 0_c_int, create), self%fd)
+        held_elsewhere = error /= 0 .and. c_lock_is_held(int(error, c_int)) /= 0
+        if (error /= 0) self%fd = -1
+    end subroutine lock_acquire
+
+    !> Cut the locked file to its first `length` bytes; 0 or the errno value.
+    integer function lock_truncate(self, length) result(error)
+        class(file_lock_t), intent(in) :: self
+        integer(int64), intent(in) :: length !! bytes kept
+        error = c_truncate_file(self%fd, int(length, c_long_long))
+    end function lock_truncate
+
+    !> Release the lock (nothing when none is held).
+    subroutine lock_release(self)
+        class(file_lock_t), intent(inout) :: self
+        integer(c_int) :: error
+        if (self%fd >= 0) error = c_unlock_file(self%fd)
+        self%fd = -1
+    end subroutine lock_release
+
+    !> Whether the lock is held.
+    pure logical function lock_held(self)
+        class(file_lock_t), intent(in) :: self
+        lock_held = self%fd >= 0
+    end function lock_held
 
     !> True when a write, flush or close has failed.
     pure logical function text_failed(self)
@@ -284,5 +386,33 @@ contains
             end if
         end do
     end function control_position
+
+    !> `text` with every non-printing character made visible, for quoting in a message: a
+    !! carriage return as \r, a tab as \t, a line feed as \n, any other control byte
+    !! (and DEL) as \xHH. Other bytes are kept.
+    pure function printable(text) result(shown)
+        character(len=*), intent(in) :: text !! the value to quote
+        character(len=:), allocatable :: shown
+        character(len=*), parameter :: backslash = achar(92)
+        character(len=2) :: hex
+        integer :: k, code
+        shown = ""
+        do k = 1, len(text)
+            code = iachar(text(k:k))
+            select case (code)
+            case (13)
+                shown = shown // backslash // "r"
+            case (9)
+                shown = shown // backslash // "t"
+            case (10)
+                shown = shown // backslash // "n"
+            case (0:8, 11:12, 14:31, 127)
+                write (hex, '(z2.2)') code
+                shown = shown // backslash // "x" // hex
+            case default
+                shown = shown // text(k:k)
+            end select
+        end do
+    end function printable
 
 end module holosym_text_file

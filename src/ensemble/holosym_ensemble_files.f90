@@ -30,10 +30,11 @@ module holosym_ensemble_files
     use holosym_kinds, only: wp
     use holosym_decimal, only: read_decimal, number_ok
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, &
-        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+        is_status_code, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_ensemble, only: ensemble_states_t, ensemble_result_t, ensemble_sink, &
         sorted_order, samples_failure
-    use holosym_text_file, only: text_file_t, text_line_t, read_text_lines
+    use holosym_text_file, only: text_file_t, text_line_t, file_lock_t, read_text_lines, &
+        error_text, printable
     implicit none
     private
 
@@ -42,8 +43,10 @@ module holosym_ensemble_files
 
     !> Format of a real field: 36 significant digits round-trip a real128 exactly.
     character(len=*), parameter :: real_format = '(es44.35e4)'
-    !> Longest integer accepted in a CSV field (more digits overflow the default integer).
-    integer, parameter :: max_integer_digits = 9
+    !> Longest integer accepted in a CSV field (digits of huge(1_int64)).
+    integer, parameter :: max_integer_digits = 19
+    !> Ids are integers from -max_id to max_id (at most 10 digits), in every file.
+    integer, parameter, public :: max_id = huge(1)
 
     !> Writes the results file, the timing log and the samples of an ensemble run.
     type, extends(ensemble_sink) :: ensemble_csv_sink
@@ -66,6 +69,7 @@ module holosym_ensemble_files
         integer(int64), private :: clock_rate = 1
         integer(int64), private :: clock_last = 0
         character(len=:), allocatable, private :: io_message
+        type(file_lock_t), private :: lock
     contains
         !> Create the results file (refused if it exists) or, to resume, reopen it.
         procedure :: open => sink_open
@@ -85,6 +89,11 @@ module holosym_ensemble_files
             character(kind=c_char), intent(in) :: old(*)
             character(kind=c_char), intent(in) :: new(*)
         end function c_rename
+
+        integer(c_int) function c_remove(path) bind(C, name="remove")
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+        end function c_remove
     end interface
 
 contains
@@ -107,7 +116,7 @@ contains
         integer :: ios, i, k, rows, width, first_data, j
         logical :: header
 
-        call read_text_lines(path, lines, ios, message)
+        call read_lines_of(path, lines, ios, message)
         if (ios /= 0) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot read states file '" // &
                 path // "': " // message)
@@ -127,7 +136,8 @@ contains
                     width = size(fields)
                     if (.not. header_matches(fields)) then
                         call fail(i, "the header must be id,q1..q" // int_str(n) // ",p1..p" // &
-                            int_str(n) // " and optionally h and T; got '" // lines(i)%text // &
+                            int_str(n) // " and optionally h and T; got '" // &
+                            printable(lines(i)%text) // &
                             "'")
                         return
                     end if
@@ -158,7 +168,8 @@ contains
             i = line_of(k)
             call parse_csv_fields(lines(i)%text, fields, ios)
             if (.not. integer_field(fields(1)%text, read%id(k))) then
-                call fail(i, "field 1 (id) must be an integer; got '" // fields(1)%text // "'")
+                call fail(i, "field 1 (id) must be an integer from " // int_str(-max_id) // &
+                    " to " // int_str(max_id) // "; got '" // printable(fields(1)%text) // "'")
                 return
             end if
             do j = 2, width
@@ -170,14 +181,14 @@ contains
                     if (.not. real_field(j, read%step_size(k))) return
                     if (.not. read%step_size(k) > 0) then
                         call fail(i, "field " // int_str(j) // " (h) must be > 0; got '" // &
-                            fields(j)%text // "'")
+                            printable(fields(j)%text) // "'")
                         return
                     end if
                 else
                     if (.not. real_field(j, read%final_time(k))) return
                     if (.not. read%final_time(k) >= 0) then
                         call fail(i, "field " // int_str(j) // " (T) must be >= 0; got '" // &
-                            fields(j)%text // "'")
+                            printable(fields(j)%text) // "'")
                         return
                     end if
                 end if
@@ -229,7 +240,7 @@ contains
             real(wp), intent(out) :: value
             ok = decimal_field(fields(column)%text, value)
             if (.not. ok) call fail(i, "field " // int_str(column) // " must be a finite " // &
-                "number; got '" // fields(column)%text // "'")
+                "number; got '" // printable(fields(column)%text) // "'")
         end function real_field
 
     end subroutine read_ensemble_states
@@ -298,10 +309,22 @@ contains
         end subroutine finish_field
     end subroutine parse_csv_fields
 
-    !> A decimal integer field (optional sign, at most `max_integer_digits` digits).
+    !> An id field: a decimal integer from -max_id to max_id (at most 10 digits).
     logical function integer_field(text, value) result(ok)
         character(len=*), intent(in) :: text
         integer, intent(out) :: value
+        integer(int64) :: wide
+        ok = integer_in(text, -int(max_id, int64), int(max_id, int64), wide)
+        value = 0
+        if (ok) value = int(wide)
+    end function integer_field
+
+    !> A decimal integer field (optional sign, digits only, at most 19 of them) from `low`
+    !! to `high`.
+    logical function integer_in(text, low, high, value) result(ok)
+        character(len=*), intent(in) :: text
+        integer(int64), intent(in) :: low, high
+        integer(int64), intent(out) :: value
         integer :: first, ios
         value = 0
         first = 1
@@ -313,7 +336,8 @@ contains
         if (.not. ok) return
         read (text, *, iostat=ios) value
         ok = ios == 0
-    end function integer_field
+        if (ok) ok = value >= low .and. value <= high
+    end function integer_in
 
     !> A finite decimal number: [sign] digits [. digits] [(e|E|d|D) [sign] digits] with at
     !! least one mantissa digit and nothing else (so NaN and Inf are refused), and a
@@ -437,13 +461,17 @@ contains
     end function rename_file
 
     !> Create the results file `path` for a run of `ids` with n coordinates, or reopen it
-    !! with `resume`. `description` (one line) describes the run; a resumed file must have
-    !! been written with the same. `skip(k)` is true for the trajectories `ids(k)` that
-    !! already have their row. The timing log `timing_path` ("" for none) is appended to.
-    !! Fails with HOLOSYM_INVALID_ARGUMENT, changing no file, when the results file exists
-    !! without `resume`, cannot be created, or holds anything but complete rows of these
-    !! ids written with this description (a row cut short at the end of the file is the
-    !! trace of a killed run: it is dropped, and the file rewritten without it).
+    !! with `resume`, and hold an exclusive lock on it (flock) until `finish`, so that no
+    !! other run (fresh or resumed, threads or MPI) writes it meanwhile. `description` (one
+    !! line) describes the run; a resumed file must have been written with the same.
+    !! `skip(k)` is true for the trajectories `ids(k)` that already have their row. The
+    !! timing log `timing_path` ("" for none) is appended to. Fails with
+    !! HOLOSYM_INVALID_ARGUMENT, changing no file (a results file this call created is
+    !! removed again), when the results file exists without `resume`, is locked by another
+    !! run, cannot be created (the system's reason), holds anything but valid complete rows
+    !! of these ids written with this description (a row cut short at the end of the file
+    !! is the trace of a killed run: it is cut off), or the timing log cannot be written.
+    !! Lines may end in CR LF.
     subroutine sink_open(self, path, timing_path, description, n, ids, resume, skip, status)
         class(ensemble_csv_sink), intent(inout) :: self !! the sink
         character(len=*), intent(in) :: path        !! results file
@@ -454,11 +482,11 @@ contains
         logical, intent(in) :: resume               !! reopen an existing file
         logical, allocatable, intent(out) :: skip(:) !! trajectories with a row already
         type(holosym_status_t), intent(out) :: status !! outcome
-        type(text_line_t), allocatable :: lines(:), fields(:), first_lines(:)
-        character(len=:), allocatable :: message, temporary
-        integer, allocatable :: order(:)
-        integer :: ios, i, id, position, kept
-        logical :: exists, truncated
+        type(text_line_t), allocatable :: first_lines(:)
+        character(len=:), allocatable :: message
+        integer(int64) :: cut
+        integer :: error, kept
+        logical :: exists, held_elsewhere
 
         call set_status(status, HOLOSYM_SUCCESS, "")
         allocate (skip(size(ids)))
@@ -475,120 +503,160 @@ contains
                 "' exists; resume the run (--resume) or remove it (nothing was changed)")
             return
         end if
+        call self%lock%acquire(path, .not. exists, error, held_elsewhere)
+        if (held_elsewhere) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "results file '" // path // &
+                "' is in use: another run holds its lock; wait for that run to end " // &
+                "(nothing was changed)")
+            return
+        else if (error /= 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot " // &
+                trim(merge("open  ", "create", exists)) // " results file '" // path // &
+                "': " // error_text(error))
+            return
+        end if
         self%path = path
         self%description = description
         self%n = n
         self%expected_rows = size(ids)
-        self%rows = 0
-        truncated = .false.
         kept = 0
         if (exists) then
-            call read_text_lines(path, lines, ios, message)
-            if (ios /= 0) then
-                call fail("cannot read '" // path // "': " // message)
-                return
-            end if
-            if (size(lines) < 2) then
-                call fail("'" // path // "' has no header; it is not the results file of a " // &
-                    "run (nothing was changed)")
-                return
-            end if
-            if (lines(1)%text /= "# " // description) then
-                call fail("'" // path // "' was written by another run: its first line is '" &
-                    // lines(1)%text // "', this run's '# " // description // &
-                    "' (nothing was changed)")
-                return
-            end if
-            if (lines(2)%text /= result_header(n)) then
-                call fail("'" // path // "': line 2 is not the results header " // &
-                    "(nothing was changed)")
-                return
-            end if
-            order = sorted_order(ids)
-            do i = 3, size(lines)
-                call parse_csv_fields(lines(i)%text, fields, ios)
-                if (ios /= 0 .or. size(fields) /= 2 * n + 9) then
-                    if (i == size(lines)) then
-                        truncated = .true.
-                        exit
-                    end if
-                    call fail("'" // path // "':" // int_str(i) // ": not a complete " // &
-                        "results row (nothing was changed)")
-                    return
-                end if
-                if (.not. integer_field(fields(1)%text, id)) then
-                    call fail("'" // path // "':" // int_str(i) // ": bad id '" // &
-                        fields(1)%text // "' (nothing was changed)")
-                    return
-                end if
-                position = find_sorted(id)
-                if (position == 0) then
-                    call fail("'" // path // "':" // int_str(i) // ": id " // int_str(id) // &
-                        " is not among the trajectories of this run (nothing was changed)")
-                    return
-                end if
-                if (skip(position)) then
-                    call fail("'" // path // "':" // int_str(i) // ": a second row for id " // &
-                        int_str(id) // " (nothing was changed)")
-                    return
-                end if
-                skip(position) = .true.
-                kept = kept + 1
-            end do
-            if (truncated) then
-                ! Drop the cut row: write the complete lines to a new file, rename it over.
-                temporary = path // ".resume.tmp"
-                call write_checked(temporary, lines(:size(lines) - 1), "replace", message)
-                if (len(message) > 0) then
-                    call fail(message)
-                    return
-                end if
-                if (.not. rename_file(temporary, path)) then
-                    call fail("cannot rename '" // temporary // "' to '" // path // "'")
-                    return
-                end if
+            call resumed_rows(path, description, n, ids, skip, kept, cut, status)
+            if (status%ok() .and. cut >= 0) then
+                error = self%lock%truncate(cut)
+                if (error /= 0) call set_status(status, HOLOSYM_INVALID_ARGUMENT, &
+                    "cannot cut the last row of '" // path // "': " // error_text(error))
             end if
         else
             allocate (first_lines(2))
             first_lines(1)%text = "# " // description
             first_lines(2)%text = result_header(n)
-            call write_checked(path, first_lines, "new", message)
-            if (len(message) > 0) then
-                call fail("cannot write results file: " // message)
-                return
-            end if
+            call write_checked(path, first_lines, "append", message)
+            if (len(message) > 0) call set_status(status, HOLOSYM_INVALID_ARGUMENT, &
+                "cannot write results file: " // message)
+        end if
+        if (status%ok()) call start_timing_log(timing_path, status)
+        if (.not. status%ok()) then
+            skip = .false.
+            if (.not. exists) call remove_created(path)
+            call self%lock%release()
+            return
         end if
         self%rows = kept
         self%timing_path = timing_path
-        if (len(timing_path) > 0) then
-            inquire (file=timing_path, exist=exists)
-            if (.not. exists) then
-                if (allocated(first_lines)) deallocate (first_lines)
-                allocate (first_lines(1))
-                first_lines(1)%text = "id,cpu_seconds,wall_seconds"
-                call write_checked(timing_path, first_lines, "new", message)
-                if (len(message) > 0) then
-                    call fail("cannot write timing log: " // message)
-                    return
-                end if
-            end if
-        end if
-        if (truncated .and. self%progress_unit >= 0) write (self%progress_unit, '(a)') &
-            self%label // "dropped the last row of '" // path // "', cut short by the " // &
-            "interrupted run"
+        if (cut >= 0 .and. exists .and. self%progress_unit >= 0) write (self%progress_unit, &
+            '(a)') self%label // "dropped the last row of '" // path // "', cut short " // &
+            "by the interrupted run"
         self%to_do = count(.not. skip)
         self%done = 0
         self%failed = 0
         self%io_message = ""
         call system_clock(self%clock_start, self%clock_rate)
         self%clock_last = self%clock_start
+    end subroutine sink_open
+
+    !> The timing log `path` with its header when it does not exist yet ("" for none).
+    subroutine start_timing_log(path, status)
+        character(len=*), intent(in) :: path
+        type(holosym_status_t), intent(inout) :: status
+        type(text_line_t) :: header(1)
+        character(len=:), allocatable :: message
+        logical :: exists
+        if (len(path) == 0) return
+        inquire (file=path, exist=exists)
+        if (exists) return
+        header(1)%text = "id,cpu_seconds,wall_seconds"
+        call write_checked(path, header, "new", message)
+        if (len(message) > 0) call set_status(status, HOLOSYM_INVALID_ARGUMENT, &
+            "cannot write timing log: " // message)
+    end subroutine start_timing_log
+
+    !> Remove a file this run created (a failed start leaves nothing behind).
+    subroutine remove_created(path)
+        character(len=*), intent(in) :: path
+        integer(c_int) :: outcome
+        outcome = c_remove(path // c_null_char)
+    end subroutine remove_created
+
+    !> The rows of the results file `path` to resume: the first line must be
+    !! "# description", the second the header, every other line a valid row (`row_problem`)
+    !! of one of `ids`, at most one per id. `skip(k)`: ids(k) has its row; `kept` rows;
+    !! `cut`: the length in bytes to cut the file to when its last row was cut short by a
+    !! kill, else -1. A failure names the line and the field.
+    subroutine resumed_rows(path, description, n, ids, skip, kept, cut, status)
+        character(len=*), intent(in) :: path, description
+        integer, intent(in) :: n, ids(:)
+        logical, intent(inout) :: skip(:)
+        integer, intent(out) :: kept
+        integer(int64), intent(out) :: cut
+        type(holosym_status_t), intent(inout) :: status
+        type(text_line_t), allocatable :: lines(:), fields(:)
+        integer(int64), allocatable :: ends(:)
+        character(len=:), allocatable :: message, problem
+        integer, allocatable :: order(:)
+        integer :: ios, i, id, position
+
+        kept = 0
+        cut = -1
+        call read_lines_of(path, lines, ios, message, ends)
+        if (ios /= 0) then
+            call fail("cannot read '" // path // "': " // message)
+            return
+        end if
+        if (size(lines) < 2) then
+            call fail("'" // path // "' has no header; it is not the results file of a " // &
+                "run (nothing was changed)")
+            return
+        end if
+        if (lines(1)%text /= "# " // description) then
+            call fail("'" // path // "' was written by another run: " // &
+                difference(lines(1)%text, "# " // description) // " (nothing was changed)")
+            return
+        end if
+        if (lines(2)%text /= result_header(n)) then
+            call fail("'" // path // "': line 2 is not the results header " // &
+                "(nothing was changed)")
+            return
+        end if
+        order = sorted_order(ids)
+        do i = 3, size(lines)
+            call parse_csv_fields(lines(i)%text, fields, ios)
+            if (ios /= 0 .or. size(fields) /= 2 * n + 9) then
+                if (i == size(lines)) then
+                    cut = ends(i - 1)
+                    exit
+                end if
+                call fail("'" // path // "':" // int_str(i) // ": not a complete " // &
+                    "results row (nothing was changed)")
+                return
+            end if
+            problem = row_problem(fields, n)
+            if (len(problem) > 0) then
+                call fail("'" // path // "':" // int_str(i) // ": " // problem // &
+                    " (nothing was changed)")
+                return
+            end if
+            if (.not. integer_field(fields(1)%text, id)) id = 0
+            position = find_sorted(id)
+            if (position == 0) then
+                call fail("'" // path // "':" // int_str(i) // ": id " // int_str(id) // &
+                    " is not among the trajectories of this run (nothing was changed)")
+                return
+            end if
+            if (skip(position)) then
+                call fail("'" // path // "':" // int_str(i) // ": a second row for id " // &
+                    int_str(id) // " (nothing was changed)")
+                return
+            end if
+            skip(position) = .true.
+            kept = kept + 1
+        end do
 
     contains
 
         subroutine fail(what)
             character(len=*), intent(in) :: what
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, what)
-            skip = .false.
         end subroutine fail
 
         !> Index k with ids(k) == key, 0 if none (binary search in `order`).
@@ -611,7 +679,101 @@ contains
             end do
         end function find_sorted
 
-    end subroutine sink_open
+    end subroutine resumed_rows
+
+    !> Two lines that differ, for a message: both quoted with non-printing characters
+    !! visible, and the first character where they differ.
+    function difference(found, wanted) result(text)
+        character(len=*), intent(in) :: found, wanted
+        character(len=:), allocatable :: text
+        integer :: k
+        k = 1
+        do while (k <= min(len(found), len(wanted)))
+            if (found(k:k) /= wanted(k:k)) exit
+            k = k + 1
+        end do
+        text = "its first line is '" // printable(found) // "', this run's '" // &
+            printable(wanted) // "' (they differ from character " // int_str(k) // ")"
+    end function difference
+
+    !> "" when the fields of a results row (2n + 9 of them) are valid, else what is wrong,
+    !! naming the field: id an integer of at most 10 digits in -max_id..max_id; code one of
+    !! the status codes (holosym_status_codes); steps and steps_done integers with
+    !! 0 <= steps_done <= steps <= huge(1); the state finite numbers; the residuals and
+    !! energy error numbers >= 0 (or the writer's NaN and Infinity); newton_iterations
+    !! an integer in 0..huge(int64).
+    function row_problem(fields, n) result(problem)
+        type(text_line_t), intent(in) :: fields(:) !! the row's fields
+        integer, intent(in) :: n                   !! coordinates
+        character(len=:), allocatable :: problem
+        type(text_line_t), allocatable :: names(:)
+        integer(int64) :: value, steps
+        real(wp) :: number
+        integer :: ios, j
+        logical :: code_ok
+        call parse_csv_fields(result_header(n), names, ios)
+        problem = ""
+        code_ok = integer_in(fields(2)%text, -int(huge(1), int64), int(huge(1), int64), value)
+        if (code_ok) code_ok = is_status_code(int(value))
+        if (.not. integer_field(fields(1)%text, j)) then
+            call bad(1, "an integer from " // int_str(-max_id) // " to " // int_str(max_id))
+        else if (.not. code_ok) then
+            call bad(2, "a holosym status code (docs/status-codes.md)")
+        else if (.not. integer_in(fields(3)%text, 0_int64, int(huge(1), int64), steps)) then
+            call bad(3, "an integer from 0 to " // int_str(huge(1)))
+        else if (.not. integer_in(fields(4)%text, 0_int64, steps, value)) then
+            call bad(4, "an integer from 0 to steps = " // int_str(int(steps)))
+        else if (.not. integer_in(fields(2 * n + 8)%text, 0_int64, huge(1_int64), value)) then
+            call bad(2 * n + 8, "a non-negative integer")
+        end if
+        if (len(problem) > 0) return
+        do j = 5, 2 * n + 4
+            if (.not. decimal_field(fields(j)%text, number)) then
+                call bad(j, "a finite number")
+                return
+            end if
+        end do
+        do j = 2 * n + 5, 2 * n + 7
+            if (decimal_field(fields(j)%text, number)) then
+                if (number >= 0) cycle
+            else if (any(fields(j)%text == [character(len=9) :: "NaN", "Infinity"])) then
+                cycle
+            end if
+            call bad(j, "a number >= 0")
+            return
+        end do
+    contains
+        subroutine bad(column, what)
+            integer, intent(in) :: column
+            character(len=*), intent(in) :: what
+            problem = "field " // int_str(column) // " (" // names(column)%text // &
+                ") must be " // what // "; got '" // printable(fields(column)%text) // "'"
+        end subroutine bad
+    end function row_problem
+
+    !> The lines of the text file `path` (`read_text_lines`), each without the carriage
+    !! return of a CR LF line end; `ends(i)`: bytes of lines 1..i with their line ends, as
+    !! in the file.
+    subroutine read_lines_of(path, lines, ios, message, ends)
+        character(len=*), intent(in) :: path
+        type(text_line_t), allocatable, intent(out) :: lines(:)
+        integer, intent(out) :: ios
+        character(len=:), allocatable, intent(out) :: message
+        integer(int64), allocatable, intent(out), optional :: ends(:)
+        integer(int64) :: total
+        integer :: i, length
+        call read_text_lines(path, lines, ios, message)
+        if (present(ends)) allocate (ends(size(lines)))
+        total = 0
+        do i = 1, size(lines)
+            length = len(lines(i)%text)
+            total = total + length + 1
+            if (present(ends)) ends(i) = total
+            if (length == 0) cycle
+            if (lines(i)%text(length:length) == achar(13)) &
+                lines(i)%text = lines(i)%text(:length - 1)
+        end do
+    end subroutine read_lines_of
 
     !> Append the row of a completed trajectory to the results file (closed and checked:
     !! `write_checked`); the timing log likewise; a progress line at most every
@@ -742,13 +904,21 @@ contains
         failed = self%failed
     end function sink_failures
 
-    !> Close the files. When the results file has a row for every trajectory, rewrite it with
-    !! the rows in ascending id order (temporary file renamed over it). Fails with
-    !! HOLOSYM_INVALID_ARGUMENT when a write failed during the run or now; the rows written
-    !! are kept either way.
+    !> Close the files and release the results file's lock. When the results file has a
+    !! row for every trajectory, rewrite it with the rows in ascending id order (temporary
+    !! file renamed over it). Fails with HOLOSYM_INVALID_ARGUMENT when a write failed
+    !! during the run or now; the rows written are kept either way.
     subroutine sink_finish(self, status)
         class(ensemble_csv_sink), intent(inout) :: self !! the sink
         type(holosym_status_t), intent(out) :: status   !! outcome
+        call sort_rows(self, status)
+        call self%lock%release()
+    end subroutine sink_finish
+
+    !> The work of `sink_finish` before the lock is released.
+    subroutine sort_rows(self, status)
+        class(ensemble_csv_sink), intent(inout) :: self
+        type(holosym_status_t), intent(out) :: status
         type(text_line_t), allocatable :: lines(:), fields(:)
         character(len=:), allocatable :: message, temporary
         integer, allocatable :: keys(:), order(:)
@@ -761,7 +931,7 @@ contains
             return
         end if
         if (self%rows /= self%expected_rows) return
-        call read_text_lines(self%path, lines, ios, message)
+        call read_lines_of(self%path, lines, ios, message)
         if (ios /= 0) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "cannot read '" // self%path // &
                 "' to sort it: " // message)
@@ -784,6 +954,6 @@ contains
         if (.not. rename_file(temporary, self%path)) call set_status(status, &
             HOLOSYM_INVALID_ARGUMENT, "cannot rename '" // temporary // "' to '" // self%path &
             // "' (the unsorted rows are kept)")
-    end subroutine sink_finish
+    end subroutine sort_rows
 
 end module holosym_ensemble_files
