@@ -12,9 +12,9 @@ module test_ensemble
         ensemble_result_t, ensemble_sink, run_ensemble, perturbed_states, openmp_farm, &
         integrate_member, record_reader_t, put, project_to_manifold, HOLOSYM_SUCCESS, &
         HOLOSYM_OFF_MANIFOLD, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH, &
-        HOLOSYM_USER_ABORT, HOLOSYM_INVALID_STEP_SIZE
+        HOLOSYM_USER_ABORT, HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_NONFINITE_VALUE
     use holosym_status_codes, only: int_str
-    use holosym_testing, only: test_case_t, new_test, test_error_t, check
+    use holosym_testing, only: test_case_t, new_test, test_error_t, check, overflow_traps
     use holosym_test_commands, only: command_result_t, run_holosym, run_shell, shell_quote, &
         holosym_executable, scratch_path, read_lines, write_lines, file_exists, file_sha256, &
         any_line_contains, text_line_t
@@ -247,6 +247,18 @@ contains
         call expect(HOLOSYM_INVALID_STEP_SIZE, "h = ", "negative h")
         call run_ensemble(sys, states, settings, results, status, skip=[.true.])
         call expect(HOLOSYM_SIZE_MISMATCH, "skip", "skip of the wrong size")
+        ! A state on the manifold whose energy overflows (|p| = huge**0.6, tangent): the
+        ! Hamiltonian named, not a Newton code.
+        if (.not. overflow_traps()) then
+            settings%project = .false.
+            bad%id = [1]
+            bad%q = reshape([1.0_wp, 0.0_wp, 0.0_wp], [3, 1])
+            bad%p = reshape([0.0_wp, huge(1.0_wp)**0.6_wp, 0.0_wp], [3, 1])
+            if (allocated(bad%step_size)) deallocate (bad%step_size)
+            call run_ensemble(sys, bad, settings, results, status)
+            call expect(HOLOSYM_NONFINITE_VALUE, "hamiltonian returned NaN or Inf at the " // &
+                "start state", "an energy that overflows")
+        end if
     contains
         subroutine expect(code, fragment, what)
             integer, intent(in) :: code

@@ -106,7 +106,8 @@ contains
             new_test("dense_output_before_step", dense_before_step), &
             new_test("dense_output_bad_tau_and_sizes", dense_bad_arguments), &
             new_test("observer_halts_integrate", observer_halts), &
-            new_test("integrate_fails_mid_run", integrate_fails_mid_run) &
+            new_test("integrate_fails_mid_run", integrate_fails_mid_run), &
+            new_test("numbers_in_messages_are_short", short_numbers) &
             ]
     end function errors_tests
 
@@ -949,5 +950,41 @@ contains
         call check_status_code(error, status%code, HOLOSYM_NONFINITE_VALUE, "no steps_done")
         call check(error, same_bits(q, q3) .and. same_bits(p, p3), "no steps_done: state")
     end subroutine integrate_fails_mid_run
+
+    !> Numbers in messages: four significant digits, trailing zeros dropped, plain from
+    !! 1e-4 to below 1e4, else a lowercase e with two exponent digits at least.
+    subroutine short_numbers(error)
+        use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, &
+            ieee_positive_inf, ieee_negative_inf
+        type(test_error_t), allocatable, intent(out) :: error
+        call expect(0.0625_wp, "0.0625")
+        call expect(1.0e-10_wp, "1.0e-10")
+        call expect(6.92e-24_wp, "6.92e-24")
+        call expect(120.0_wp, "120")
+        call expect(1.0_wp / 3, "0.3333")
+        call expect(2.0_wp / 3, "0.6667")
+        call expect(-1.5e30_wp, "-1.5e+30")
+        call expect(999999.0_wp, "1.0e+06")
+        call expect(123456.0_wp, "1.235e+05")
+        call expect(1234.0_wp, "1234")
+        call expect(12346.0_wp, "1.235e+04")
+        call expect(0.0001_wp, "0.0001")
+        call expect(0.00009999_wp, "9.999e-05")
+        call expect(1.0_wp, "1")
+        call expect(-2.5_wp, "-2.5")
+        call expect(0.0_wp, "0")
+        call expect(ieee_value(1.0_wp, ieee_quiet_nan), "NaN")
+        call expect(ieee_value(1.0_wp, ieee_positive_inf), "Infinity")
+        call expect(ieee_value(1.0_wp, ieee_negative_inf), "-Infinity")
+        if (range(1.0_wp) > 1000) call expect(tiny(1.0_wp), "3.362e-4932")
+    contains
+        subroutine expect(value, text)
+            real(wp), intent(in) :: value
+            character(len=*), intent(in) :: text
+            if (allocated(error)) return
+            call check(error, real_str(value) == text, "real_str gives '" // &
+                real_str(value) // "', expected '" // text // "'")
+        end subroutine expect
+    end subroutine short_numbers
 
 end module test_errors

@@ -254,7 +254,7 @@ contains
         end do
         sign = merge("-", " ", value < 0)
         sign = trim(sign)
-        if (exponent >= -4 .and. exponent < 6) then
+        if (exponent >= -4 .and. exponent < short_digits) then
             if (exponent >= 0) then
                 fraction = ""
                 if (used > exponent + 1) fraction = "." // digits(exponent + 2:used)
@@ -273,7 +273,7 @@ contains
 
     !> Short text of a real (any kind converted to wp) for people: messages, progress and
     !! summaries. `short_digits` significant digits, trailing zeros dropped; plain from
-    !! 1e-4 to below 1e6 ("0.0625", "120", "0.3333"), else scientific with a lowercase e and
+    !! 1e-4 to below 1e4 ("0.0625", "120", "0.3333"), else scientific with a lowercase e and
     !! a two-digit exponent at least ("1.0e-10", "6.92e-24", "1.5e+30", "1.0e-4932"); "0",
     !! "NaN", "Infinity", "-Infinity". Files keep full digits (their own formats).
     pure function real_str(value) result(text)

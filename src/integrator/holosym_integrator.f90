@@ -432,7 +432,14 @@ contains
             tolerance = self%manifold_tolerance
             if (continuing) tolerance = max(tolerance, end_tolerance(self))
             if (.not. continuing) then
-                ! The system's own consistency first: a wrong declaration (a sparsity
+                ! An energy beyond the range of the numbers (e.g. |p| = 1e4000) first: every
+                ! later test would only see its effects.
+                if (.not. is_finite(sys%hamiltonian(q, p))) then
+                    call set_status(status, HOLOSYM_NONFINITE_VALUE, "hamiltonian returned " &
+                        // "NaN or Inf at the start state")
+                    return
+                end if
+                ! The system's own consistency next: a wrong declaration (a sparsity
                 ! pattern, a Jacobian) would make every later test report its effect.
                 call check_once(self, sys, q, p, status)
                 if (.not. status%ok()) return
