@@ -397,7 +397,7 @@ contains
         type(holosym_status_t), intent(out) :: status
         real(wp) :: position, velocity, scaled_position, scaled_velocity, tolerance, hp(size(q))
         character(len=:), allocatable :: rank_message
-        logical :: continuing
+        logical :: continuing, finite
 
         if (.not. self%ready) then
             call set_status(status, HOLOSYM_NOT_INITIALIZED, "call init before step or integrate")
@@ -443,8 +443,12 @@ contains
                 ! pattern, a Jacobian) would make every later test report its effect.
                 call check_once(self, sys, q, p, status)
                 if (.not. status%ok()) return
-                if (.not. rank_test(self, sys, q, rank_message)) then
+                if (.not. rank_test(self, sys, q, rank_message, finite=finite)) then
                     call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, rank_message)
+                    return
+                else if (.not. finite) then
+                    call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint_jacobian " // &
+                        "returned NaN or Inf at the start state")
                     return
                 end if
             end if
@@ -560,20 +564,21 @@ contains
     end subroutine state_residuals
 
     !> `full_rank_constraints`, banded through Phi's sparse pattern on the reduced path.
-    logical function rank_test(self, sys, q, message, threshold)
+    logical function rank_test(self, sys, q, message, threshold, finite)
         class(constrained_integrator), intent(in) :: self
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:)
         character(len=:), allocatable, intent(out) :: message
         real(wp), intent(in), optional :: threshold !! relative pivot of Phi Phi^T
+        logical, intent(out), optional :: finite    !! false: Phi not finite (result true)
         if (self%reduced_active) then
             associate (lay => self%reduced%scheme%layout)
                 rank_test = sparse_full_rank_constraints(sys, lay%phi_rows, lay%phi_cols, &
                                                          lay%constraint_order, q, message, &
-                                                         threshold)
+                                                         threshold, finite)
             end associate
         else
-            rank_test = full_rank_constraints(sys, q, message, threshold)
+            rank_test = full_rank_constraints(sys, q, message, threshold, finite)
         end if
     end function rank_test
 

@@ -168,8 +168,8 @@ contains
     !! band storage, constraints taken in `order` (for which the Gram matrix should be
     !! banded); a pivot below m epsilon times the largest diagonal entry means rank
     !! deficient, as for the dense test. Work and memory grow like m times the band squared.
-    function sparse_full_rank_constraints(sys, rows, columns, order, q, message, threshold) &
-        result(full_rank)
+    function sparse_full_rank_constraints(sys, rows, columns, order, q, message, threshold, &
+                                          finite) result(full_rank)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         integer, intent(in) :: rows(:)     !! pattern of Phi: constraint of each entry
         integer, intent(in) :: columns(:)  !! pattern of Phi: coordinate of each entry
@@ -178,6 +178,8 @@ contains
         character(len=:), allocatable, intent(out) :: message !! why not, or empty
         !> Relative pivot threshold of Phi Phi^T (default m epsilon).
         real(wp), intent(in), optional :: threshold
+        !> False when Phi is not finite at q (the result is then true: no dependence found).
+        logical, intent(out), optional :: finite
         logical :: full_rank
         real(wp), allocatable :: values(:), band(:, :)
         integer, allocatable :: start(:), entry(:), fill(:)
@@ -185,10 +187,14 @@ contains
         real(wp) :: largest, relative, cutoff
         message = ""
         full_rank = .true.
+        if (present(finite)) finite = .true.
         if (sys%m == 0) return
         allocate (values(size(rows)))
         call sys%constraint_jacobian_values(q, rows, columns, values)
-        if (.not. all(is_finite(values))) return  ! reported as non-finite by the caller
+        if (.not. all(is_finite(values))) then
+            if (present(finite)) finite = .false.
+            return
+        end if
         ! Entries of each coordinate (column), to pair the constraints that share it.
         allocate (start(sys%n + 1), fill(sys%n), entry(size(rows)))
         fill = 0
@@ -255,20 +261,26 @@ contains
     !> True when Phi(q) has full row rank m: the LU of Phi Phi^T (m x m) finds no pivot
     !! below m epsilon relative, i.e. no singular value of Phi below ~sqrt(m epsilon) relative.
     !! Otherwise `message` says which constraint is (nearly) dependent on the others.
-    function full_rank_constraints(sys, q, message, threshold) result(full_rank)
+    function full_rank_constraints(sys, q, message, threshold, finite) result(full_rank)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         real(wp), intent(in) :: q(:) !! coordinates (n)
         character(len=:), allocatable, intent(out) :: message !! why not, or empty
         !> Relative pivot threshold of Phi Phi^T (default m epsilon).
         real(wp), intent(in), optional :: threshold
+        !> False when Phi is not finite at q (the result is then true: no dependence found).
+        logical, intent(out), optional :: finite
         logical :: full_rank
         real(wp) :: jac(sys%m, sys%n), gram(sys%m, sys%m), relative
         integer :: pivots(sys%m), info
         message = ""
         full_rank = .true.
+        if (present(finite)) finite = .true.
         if (sys%m == 0) return
         call sys%constraint_jacobian(q, jac)
-        if (.not. all(is_finite(jac))) return  ! reported as non-finite by the caller's checks
+        if (.not. all(is_finite(jac))) then
+            if (present(finite)) finite = .false.
+            return
+        end if
         gram = matmul(jac, transpose(jac))
         relative = sys%m * epsilon(1.0_wp)
         if (present(threshold)) relative = threshold

@@ -222,7 +222,8 @@ contains
         real(wp) :: coarse, fine, extrapolated, bound
         miss = not_finite
         if (.not. (is_finite(declared) .and. is_finite(plus) .and. is_finite(minus) .and. &
-                   is_finite(half_plus) .and. is_finite(half_minus))) return
+                   is_finite(half_plus) .and. is_finite(half_minus) .and. is_finite(scale))) &
+            return
         coarse = (plus - minus) / (2 * h)
         fine = (half_plus - half_minus) / h
         extrapolated = (4 * fine - coarse) / 3

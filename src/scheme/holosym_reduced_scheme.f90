@@ -485,7 +485,7 @@ contains
                     if (.not. self%linear_potential) &
                         call potential_differences(self, self%q_work, self%hu(:, g), status)
                 else
-                    call dense_potential_hessian(self, self%q_work, self%hu(:, g))
+                    call dense_potential_hessian(self, self%q_work, self%hu(:, g), status)
                 end if
                 if (.not. status%ok()) return
             end do
@@ -497,7 +497,8 @@ contains
                     call curvature_differences(self, self%q_work, self%mu_work, self%lv(:, i), &
                                                status)
                 else
-                    call dense_curvature(self, self%q_work, self%mu_work, self%lv(:, i))
+                    call dense_curvature(self, self%q_work, self%mu_work, self%lv(:, i), &
+                                         status)
                 end if
                 if (.not. status%ok()) return
             end do
@@ -507,21 +508,30 @@ contains
             if (self%layout%sparse) then
                 call direction_differences(self, self%q_work, self%g_work, self%kv, status)
             else
-                call dense_direction(self, self%q_work, self%g_work, self%kv)
+                call dense_direction(self, self%q_work, self%g_work, self%kv, status)
             end if
         end associate
+        if (.not. status%ok()) return
         if (.not. all(ieee_is_finite(self%hu)) .or. .not. all(ieee_is_finite(self%lv)) .or. &
             .not. all(ieee_is_finite(self%kv))) call set_status(status, &
             HOLOSYM_NONFINITE_VALUE, "non-finite second derivatives of U or phi")
     end subroutine second_derivatives
 
-    !> Hessian of U at q from the system's `hessian` (d2H/dq2), on the coupling pattern.
-    subroutine dense_potential_hessian(self, q, values)
+    !> Hessian of U at q from the system's `hessian` (d2H/dq2), on the coupling pattern;
+    !! HOLOSYM_NONFINITE_VALUE when any of its three blocks is not finite (the two not used
+    !! here included: a NaN is never passed over).
+    subroutine dense_potential_hessian(self, q, values, status)
         class(reduced_scheme_t), intent(inout) :: self
         real(wp), intent(in) :: q(:)
         real(dp), intent(out) :: values(:)
+        type(holosym_status_t), intent(inout) :: status
         integer :: c, a
         call self%sys%hessian(q, self%p_zero, self%hqq, self%hqp, self%hpp)
+        if (.not. (all(is_finite(self%hqq)) .and. all(is_finite(self%hqp)) .and. &
+                   all(is_finite(self%hpp)))) then
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, "hessian returned NaN or Inf")
+            return
+        end if
         do c = 1, self%n
             do a = self%layout%near_start(c), self%layout%near_start(c + 1) - 1
                 values(a) = real(self%hqq(c, self%layout%near(a)), dp)
@@ -530,13 +540,15 @@ contains
     end subroutine dense_potential_hessian
 
     !> sum_l mu_l phi_l''(q) from the system's `constraint_hessian`, on the coupling pattern.
-    subroutine dense_curvature(self, q, mu, values)
+    subroutine dense_curvature(self, q, mu, values, status)
         class(reduced_scheme_t), intent(inout) :: self
         real(wp), intent(in) :: q(:), mu(:)
         real(dp), intent(out) :: values(:)
+        type(holosym_status_t), intent(inout) :: status
         integer :: c, a, l
         real(wp) :: total
-        call self%sys%constraint_hessian(q, self%phi_hess)
+        call constraint_hessian_checked(self, q, status)
+        if (.not. status%ok()) return
         do c = 1, self%n
             do a = self%layout%near_start(c), self%layout%near_start(c + 1) - 1
                 total = 0
@@ -550,17 +562,30 @@ contains
 
     !> d(Phi(q) v)/dq from `constraint_hessian`: K(l, c) = sum_k v_k phi_l''(k, c), on
     !! Phi's pattern.
-    subroutine dense_direction(self, q, v, values)
+    subroutine dense_direction(self, q, v, values, status)
         class(reduced_scheme_t), intent(inout) :: self
         real(wp), intent(in) :: q(:), v(:)
         real(dp), intent(out) :: values(:)
+        type(holosym_status_t), intent(inout) :: status
         integer :: e
-        call self%sys%constraint_hessian(q, self%phi_hess)
+        call constraint_hessian_checked(self, q, status)
+        if (.not. status%ok()) return
         do e = 1, size(values)
             values(e) = real(sum(v * self%phi_hess(:, self%layout%phi_cols(e), &
                                                    self%layout%phi_rows(e))), dp)
         end do
     end subroutine dense_direction
+
+    !> The system's `constraint_hessian` at q into phi_hess; HOLOSYM_NONFINITE_VALUE when
+    !! it is not finite.
+    subroutine constraint_hessian_checked(self, q, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: q(:)
+        type(holosym_status_t), intent(inout) :: status
+        call self%sys%constraint_hessian(q, self%phi_hess)
+        if (.not. all(is_finite(self%phi_hess))) call set_status(status, &
+            HOLOSYM_NONFINITE_VALUE, "constraint_hessian returned NaN or Inf")
+    end subroutine constraint_hessian_checked
 
     !> Hessian of U at q by forward differences of grad U along the colours.
     subroutine potential_differences(self, q, values, status)
