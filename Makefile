@@ -37,6 +37,8 @@
 #                             into test/data/formula_reference.csv
 #   make c-example            example/c built with gcc against the real128 library and run
 #   make c-example64          the same with the real64 library (double)
+#   make python-test          the Python package (python/): a fresh venv, pip install
+#                             ./python (CMake, shared library), pytest, the plot example
 # Ensembles and MPI:
 #   make test-mpi             the MPI build (installs OpenMPI) and its tests: ensembles and
 #                             tables cells on 1-3 ranks give the serial files byte for byte
@@ -78,7 +80,7 @@ CMAKE_DIR ?= build/cmake
 	pendulum linkage examples clean install check-install check-fpm-install cmake-deps \
 	cmake-test flang-deps test-flang check-examples check-version check-fpm-dependency \
 	profile docs docs-deps docs-tables docs-stability docs-performance mpi test-mpi scaling \
-	venv figures reference reference-formula c-example c-example64
+	venv figures reference reference-formula c-example c-example64 python-test
 # Run-time checks, and floating-point exceptions that stop the program (SIGFPE).
 TRAP_FLAGS ?= --flag "-g -fbacktrace -fcheck=all -ffpe-trap=invalid,zero,overflow"
 
@@ -217,6 +219,11 @@ c-example: deps include-digest
 
 c-example64: deps include-digest
 	./tools/c_example.sh real64
+
+# The Python package: a fresh virtual environment under build/, pip install ./python,
+# pytest python/tests (against the holosym command), python/examples/plot_errors.py.
+python-test: deps include-digest
+	./tools/python_test.sh
 
 pendulum: deps include-digest
 	$(FPM) run $(FPM_FLAGS) -- simulate --system pendulum $(SIMULATE_ARGS)

@@ -167,6 +167,38 @@ int holosym_model_parameter_count(holosym_integrator *integrator);
 int holosym_model_name(holosym_integrator *integrator, int what, int index, char *buffer,
                        int size);
 
+
+/* ---- Reals through pointers, H and phi at a state ----
+ * The same calls with every real scalar passed through a pointer (for callers that cannot
+ * pass a __float128 by value, e.g. Python's ctypes, which has no such type). A NULL pointer
+ * is HOLOSYM_INVALID_ARGUMENT naming the function and the argument ("holosym_step_p: h is
+ * NULL"); otherwise the codes and messages are those of the call without _p. */
+
+/* The observer of holosym_integrate_p: t through a pointer. */
+typedef int (*holosym_observer_p_fn)(holosym_integrator *integrator, int step,
+                                     const holosym_real *t, const holosym_real *q,
+                                     const holosym_real *p, void *data);
+
+int holosym_step_p(holosym_integrator *integrator, holosym_real *q, holosym_real *p,
+                   const holosym_real *h);
+int holosym_integrate_p(holosym_integrator *integrator, holosym_real *q, holosym_real *p,
+                        const holosym_real *h, int steps, holosym_observer_p_fn observer,
+                        void *observer_data, int *steps_done);
+int holosym_dense_output_p(const holosym_integrator *integrator, const holosym_real *tau,
+                           holosym_real *q, holosym_real *p, holosym_real *lambda);
+int holosym_model_set_parameter_p(holosym_integrator *integrator, const char *name,
+                                  const holosym_real *value);
+
+/* H(q, p) of the handle's system into *energy (HOLOSYM_NONFINITE_VALUE when it is not
+ * finite: *energy unchanged). */
+int holosym_energy(holosym_integrator *integrator, const holosym_real *q,
+                   const holosym_real *p, holosym_real *energy);
+
+/* The constraint values phi(q) into phi[0..m-1] (phi may be NULL when m = 0;
+ * HOLOSYM_NONFINITE_VALUE when one is not finite: phi unchanged). */
+int holosym_constraint(holosym_integrator *integrator, const holosym_real *q,
+                       holosym_real *phi);
+
 #ifdef __cplusplus
 }
 #endif

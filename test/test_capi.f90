@@ -18,7 +18,8 @@ module test_capi
         holosym_dense_output, holosym_project, holosym_sizes, holosym_model_create, &
         holosym_model_set_parameter, holosym_model_get_parameter, &
         holosym_model_initial_state, holosym_model_parameter_count, holosym_model_name, &
-        name_parameter_c, name_coordinate_c, name_momentum_c
+        holosym_step_p, holosym_integrate_p, holosym_dense_output_p, &
+        holosym_model_set_parameter_p, holosym_energy, holosym_constraint, name_parameter_c, name_coordinate_c, name_momentum_c
     use holosym_formula_model, only: formula_model, load_model
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
@@ -41,7 +42,8 @@ contains
             new_test("model_calls_reject_bad_input", model_bad_input), &
             new_test("null_arrays_refused", null_arrays), &
             new_test("destroyed_and_foreign_handles_refused", dead_handles), &
-            new_test("header_and_docs_follow_the_status_table", header_codes)]
+            new_test("header_and_docs_follow_the_status_table", header_codes), &
+            new_test("reals_through_pointers_match_values", pointer_calls)]
     end function capi_tests
 
     ! ---------------------------------------------------------------- C callbacks
@@ -122,6 +124,21 @@ contains
         end if
         if (step == 5) c_watch = 1
     end function c_watch
+
+    !> Observer of holosym_integrate_p: t of each step into data (a real(c_real) array of
+    !! 8), stop at step 3.
+    integer(c_int) function c_watch_p(handle, step, t, q, p, data) bind(C)
+        type(c_ptr), value :: handle
+        integer(c_int), value :: step
+        real(c_real), intent(in) :: t
+        real(c_real), intent(in) :: q(*), p(*)
+        type(c_ptr), value :: data
+        real(c_real), pointer :: seen(:)
+        call c_f_pointer(data, seen, [8])
+        seen(step) = t
+        c_watch_p = 0
+        if (step == 3) c_watch_p = 1
+    end function c_watch_p
 
     !> The planar pendulum's system struct.
     function pendulum_struct() result(system)
@@ -624,5 +641,104 @@ contains
             if (number < 0) text = char(226) // char(136) // char(146) // text
         end function minus
     end subroutine header_codes
+
+    !> The _p calls (reals through pointers) give the bits of the calls with values on the
+    !! four-bar model; holosym_energy and holosym_constraint give H and phi of the Fortran
+    !! model; the observer of holosym_integrate_p sees t = k h and stops the run; NULL
+    !! pointers are refused with their names, the arrays unchanged.
+    subroutine pointer_calls(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(kind=c_char), allocatable, target :: text(:), name(:)
+        type(c_ptr) :: by_value, by_pointer
+        type(formula_model) :: model
+        type(holosym_status_t) :: status
+        real(c_real), target :: q1(4), p1(4), q2(4), p2(4), h, tau, value, energy, phi(3)
+        real(c_real), target :: qd1(4), pd1(4), ld1(3), qd2(4), pd2(4), ld2(3), seen(8)
+        real(wp) :: qf(4), pf(4), phif(3)
+        integer(c_int), target :: done
+        text = c_text(file_text("example/models/fourbar.hsm"))
+        by_value = holosym_model_create(c_loc(text), 4_c_int, 3_c_int, 5_c_int)
+        by_pointer = holosym_model_create(c_loc(text), 4_c_int, 3_c_int, 5_c_int)
+        name = c_text("omega")
+        value = 3
+        call check_status_code(error, int(holosym_model_set_parameter(by_value, c_loc(name), &
+            3.0_c_real)), HOLOSYM_SUCCESS, message_of(by_value))
+        call check_status_code(error, int(holosym_model_set_parameter_p(by_pointer, &
+            c_loc(name), c_loc(value))), HOLOSYM_SUCCESS, message_of(by_pointer))
+        value = 0
+        call check_status_code(error, int(holosym_model_get_parameter(by_pointer, c_loc(name), &
+            c_loc(value))), HOLOSYM_SUCCESS, message_of(by_pointer))
+        call check(error, value == 3, "omega set through a pointer reads back 3")
+        if (allocated(error)) return
+        call check_status_code(error, int(holosym_model_initial_state(by_value, c_loc(q1), &
+            c_loc(p1))), HOLOSYM_SUCCESS, message_of(by_value))
+        call check_status_code(error, int(holosym_model_initial_state(by_pointer, c_loc(q2), &
+            c_loc(p2))), HOLOSYM_SUCCESS, message_of(by_pointer))
+        h = 1.0_c_real / 32
+        call check_status_code(error, int(holosym_step(by_value, c_loc(q1), c_loc(p1), h)), &
+            HOLOSYM_SUCCESS, message_of(by_value))
+        call check_status_code(error, int(holosym_step_p(by_pointer, c_loc(q2), c_loc(p2), &
+            c_loc(h))), HOLOSYM_SUCCESS, message_of(by_pointer))
+        call check(error, all(q1 == q2) .and. all(p1 == p2), "holosym_step_p differs")
+        tau = 0.25_c_real
+        call check_status_code(error, int(holosym_dense_output(by_value, tau, c_loc(qd1), &
+            c_loc(pd1), c_loc(ld1))), HOLOSYM_SUCCESS, message_of(by_value))
+        call check_status_code(error, int(holosym_dense_output_p(by_pointer, c_loc(tau), &
+            c_loc(qd2), c_loc(pd2), c_loc(ld2))), HOLOSYM_SUCCESS, message_of(by_pointer))
+        call check(error, all(qd1 == qd2) .and. all(pd1 == pd2) .and. all(ld1 == ld2), &
+            "holosym_dense_output_p differs")
+        if (allocated(error)) return
+        call check_status_code(error, int(holosym_integrate(by_value, c_loc(q1), c_loc(p1), h, &
+            3_c_int, c_null_funptr, c_null_ptr, c_loc(done))), HOLOSYM_SUCCESS, &
+            message_of(by_value))
+        seen = -1
+        call check_status_code(error, int(holosym_integrate_p(by_pointer, c_loc(q2), &
+            c_loc(p2), c_loc(h), 5_c_int, c_funloc(c_watch_p), c_loc(seen), c_loc(done))), &
+            HOLOSYM_USER_ABORT, "the observer of holosym_integrate_p stops at step 3")
+        call check(error, done == 3 .and. all(q1 == q2) .and. all(p1 == p2), &
+            "holosym_integrate_p differs from holosym_integrate")
+        call check(error, all(seen(1:3) == [1, 2, 3] * h) .and. seen(4) == -1, &
+            "the observer's t through a pointer is k h")
+        if (allocated(error)) return
+        call load_model("example/models/fourbar.hsm", model, status)
+        call model%set_parameter("omega", 3.0_wp)
+        qf = q2
+        pf = p2
+        call model%constraint(qf, phif)
+        call check_status_code(error, int(holosym_energy(by_pointer, c_loc(q2), c_loc(p2), &
+            c_loc(energy))), HOLOSYM_SUCCESS, message_of(by_pointer))
+        call check(error, energy == model%hamiltonian(qf, pf), "holosym_energy is not H")
+        call check_status_code(error, int(holosym_constraint(by_pointer, c_loc(q2), &
+            c_loc(phi))), HOLOSYM_SUCCESS, message_of(by_pointer))
+        call check(error, all(phi == phif), "holosym_constraint is not phi")
+        if (allocated(error)) return
+        q1 = q2
+        call check_status_code(error, int(holosym_step_p(by_pointer, c_loc(q2), c_loc(p2), &
+            c_null_ptr)), HOLOSYM_INVALID_ARGUMENT, "NULL h")
+        call check(error, message_of(by_pointer) == "holosym_step_p: h is NULL", &
+            "message of a NULL h: " // message_of(by_pointer))
+        call check(error, all(q1 == q2), "q changed by a refused call")
+        call check_status_code(error, int(holosym_integrate_p(by_pointer, c_loc(q2), &
+            c_loc(p2), c_null_ptr, 1_c_int, c_null_funptr, c_null_ptr, c_null_ptr)), &
+            HOLOSYM_INVALID_ARGUMENT, "NULL h of integrate_p")
+        call check_status_code(error, int(holosym_dense_output_p(by_pointer, c_null_ptr, &
+            c_loc(qd2), c_loc(pd2), c_loc(ld2))), HOLOSYM_INVALID_ARGUMENT, "NULL tau")
+        call check(error, message_of(by_pointer) == "holosym_dense_output_p: tau is NULL", &
+            "message of a NULL tau: " // message_of(by_pointer))
+        call check_status_code(error, int(holosym_model_set_parameter_p(by_pointer, &
+            c_loc(name), c_null_ptr)), HOLOSYM_INVALID_ARGUMENT, "NULL value")
+        call check_status_code(error, int(holosym_energy(by_pointer, c_loc(q2), c_loc(p2), &
+            c_null_ptr)), HOLOSYM_INVALID_ARGUMENT, "NULL energy")
+        call check_status_code(error, int(holosym_constraint(by_pointer, c_loc(q2), &
+            c_null_ptr)), HOLOSYM_INVALID_ARGUMENT, "NULL phi")
+        call check(error, message_of(by_pointer) == "holosym_constraint: phi is NULL (m > 0)", &
+            "message of a NULL phi: " // message_of(by_pointer))
+        call check_status_code(error, int(holosym_step_p(c_null_ptr, c_loc(q2), c_loc(p2), &
+            c_loc(h))), HOLOSYM_NOT_INITIALIZED, "NULL handle")
+        call check_status_code(error, int(holosym_energy(c_null_ptr, c_loc(q2), c_loc(p2), &
+            c_loc(energy))), HOLOSYM_NOT_INITIALIZED, "NULL handle of holosym_energy")
+        call holosym_destroy(by_value)
+        call holosym_destroy(by_pointer)
+    end subroutine pointer_calls
 
 end module test_capi

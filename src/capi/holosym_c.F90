@@ -24,10 +24,11 @@ module holosym_c
 #ifndef HOLOSYM_REAL64
     use, intrinsic :: iso_c_binding, only: c_float128
 #endif
-    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, HOLOSYM_SUCCESS, &
-        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION
+        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION, &
+        HOLOSYM_NONFINITE_VALUE
     use holosym_problem, only: constrained_hamiltonian
     use holosym_formula_model, only: formula_model, model_from_text
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
@@ -43,6 +44,10 @@ module holosym_c
         holosym_integrate, holosym_dense_output, holosym_project, holosym_sizes
     public :: holosym_model_create, holosym_model_set_parameter, holosym_model_get_parameter, &
         holosym_model_initial_state, holosym_model_parameter_count, holosym_model_name
+    ! Reals through pointers (for callers that cannot pass __float128 by value, e.g.
+    ! Python's ctypes), and H and phi at a state.
+    public :: holosym_step_p, holosym_integrate_p, holosym_dense_output_p, &
+        holosym_model_set_parameter_p, holosym_energy, holosym_constraint
 
     !> What `holosym_model_name` names (HOLOSYM_NAME_* in the header).
     integer(c_int), parameter, public :: name_parameter_c = 0, name_coordinate_c = 1, &
@@ -110,6 +115,15 @@ module holosym_c
             real(c_real), intent(in) :: q(*), p(*)
             type(c_ptr), value :: data
         end function c_observer
+        !> The observer of `holosym_integrate_p`: t through a pointer.
+        integer(c_int) function c_observer_p(handle, step, t, q, p, data) bind(C)
+            import :: c_int, c_real, c_ptr
+            type(c_ptr), value :: handle
+            integer(c_int), value :: step
+            real(c_real), intent(in) :: t
+            real(c_real), intent(in) :: q(*), p(*)
+            type(c_ptr), value :: data
+        end function c_observer_p
     end interface
 
     !> The first callback failure of a call (kept through a pointer: the system's bindings
@@ -136,9 +150,11 @@ module holosym_c
         procedure :: constraint_jacobian => c_system_constraint_jacobian
     end type c_callback_system
 
-    !> Calls a C observer after every step of `holosym_integrate`.
+    !> Calls a C observer after every step of `holosym_integrate` (fn) or
+    !! `holosym_integrate_p` (fn_p, t through a pointer).
     type, extends(step_observer) :: c_step_observer
         procedure(c_observer), pointer, nopass :: fn => null()
+        procedure(c_observer_p), pointer, nopass :: fn_p => null()
         type(c_ptr) :: handle = c_null_ptr
         type(c_ptr) :: data = c_null_ptr
     contains
@@ -267,11 +283,17 @@ contains
         real(wp), intent(in) :: t, q(:), p(:)
         type(step_info_t), intent(in) :: info
         logical, intent(inout) :: halt
-        real(c_real) :: q_c(size(q)), p_c(size(p))
+        real(c_real) :: q_c(size(q)), p_c(size(p)), t_c
         q_c = q
         p_c = p
-        if (self%fn(self%handle, int(step, c_int), real(t, c_real), q_c, p_c, self%data) /= 0) &
-            halt = .true.
+        t_c = real(t, c_real)
+        if (associated(self%fn_p)) then
+            if (self%fn_p(self%handle, int(step, c_int), t_c, q_c, p_c, self%data) /= 0) &
+                halt = .true.
+        else
+            if (self%fn(self%handle, int(step, c_int), t_c, q_c, p_c, self%data) /= 0) &
+                halt = .true.
+        end if
     end subroutine c_observe
 
     ! ---------------------------------------------------------------- helpers
@@ -548,31 +570,46 @@ contains
         type(c_funptr), value :: observer     !! observer or NULL
         type(c_ptr), value :: observer_data   !! passed to the observer
         type(c_ptr), value :: steps_done      !! int *, or NULL
+        type(c_step_observer) :: bridge
+        if (c_associated(observer)) call c_f_procpointer(observer, bridge%fn)
+        bridge%handle = ptr
+        bridge%data = observer_data
+        holosym_integrate = run_integrate(ptr, "holosym_integrate", q_ptr, p_ptr, &
+                                          real(h, wp), steps, bridge, steps_done)
+    end function holosym_integrate
+
+    !> The body of `holosym_integrate` and `holosym_integrate_p`: `bridge` holds the
+    !! observer (fn or fn_p; neither: no observer); `caller` names the function.
+    integer(c_int) function run_integrate(ptr, caller, q_ptr, p_ptr, h, steps, bridge, &
+                                          steps_done) result(code)
+        type(c_ptr), intent(in) :: ptr             !! the handle
+        character(len=*), intent(in) :: caller     !! the C function, for messages
+        type(c_ptr), intent(in) :: q_ptr           !! holosym_real *: coordinates (n)
+        type(c_ptr), intent(in) :: p_ptr           !! holosym_real *: momenta (n)
+        real(wp), intent(in) :: h                  !! step size
+        integer(c_int), intent(in) :: steps        !! number of steps
+        type(c_step_observer), intent(inout) :: bridge !! the observer, if any
+        type(c_ptr), intent(in) :: steps_done      !! int *, or NULL
         type(c_handle), pointer :: handle
         type(holosym_status_t) :: status
-        type(c_step_observer) :: bridge
         integer(c_int), pointer :: done
         real(c_real), pointer :: q(:), p(:)
         real(wp), allocatable :: qw(:), pw(:)
         integer :: count
-        handle => ready_handle(ptr, "holosym_integrate", holosym_integrate)
+        handle => ready_handle(ptr, caller, code)
         if (.not. associated(handle)) return
-        if (.not. arrays_given(handle, "holosym_integrate", q_ptr, p_ptr, holosym_integrate)) &
-            return
+        if (.not. arrays_given(handle, caller, q_ptr, p_ptr, code)) return
         q => reals_at(q_ptr, handle%system%n)
         p => reals_at(p_ptr, handle%system%n)
         handle%record%code = 0
         qw = q
         pw = p
         count = 0
-        if (c_associated(observer)) then
-            call c_f_procpointer(observer, bridge%fn)
-            bridge%handle = ptr
-            bridge%data = observer_data
-            call handle%integrator%integrate(handle%system, qw, pw, real(h, wp), int(steps), &
+        if (associated(bridge%fn) .or. associated(bridge%fn_p)) then
+            call handle%integrator%integrate(handle%system, qw, pw, h, int(steps), &
                                              bridge, count, status)
         else
-            call handle%integrator%integrate(handle%system, qw, pw, real(h, wp), int(steps), &
+            call handle%integrator%integrate(handle%system, qw, pw, h, int(steps), &
                                              steps_done=count, status=status)
         end if
         if (count > 0) then
@@ -583,8 +620,8 @@ contains
             call c_f_pointer(steps_done, done)
             done = int(count, c_int)
         end if
-        holosym_integrate = finish(handle, status)
-    end function holosym_integrate
+        code = finish(handle, status)
+    end function run_integrate
 
     !> int holosym_dense_output(const holosym_integrator *integrator, holosym_real tau,
     !! holosym_real *q, holosym_real *p, holosym_real *lambda): the last step's q~, p~ and
@@ -904,6 +941,186 @@ contains
         holosym_model_name = refuse(handle, HOLOSYM_SUCCESS, "")
         holosym_model_name = copy_text(text, buffer, size)
     end function holosym_model_name
+
+    ! ---------------------------------------------------------------- reals through pointers
+
+    !> The real at `value_ptr` (true), or false with the call refused: a NULL `value_ptr`
+    !! is HOLOSYM_INVALID_ARGUMENT naming `caller` and `what`, a handle that is not live
+    !! HOLOSYM_NOT_INITIALIZED (`code`).
+    logical function scalar_given(ptr, caller, value_ptr, what, value, code) result(given)
+        type(c_ptr), intent(in) :: ptr           !! the handle
+        character(len=*), intent(in) :: caller   !! the C function
+        type(c_ptr), intent(in) :: value_ptr     !! const holosym_real *
+        character(len=*), intent(in) :: what     !! the argument's name
+        real(c_real), intent(out) :: value       !! the real it points to
+        integer(c_int), intent(out) :: code      !! the call's code when not given
+        type(c_handle), pointer :: handle
+        real(c_real), pointer :: target_value
+        given = .false.
+        value = 0
+        handle => handle_of(ptr)
+        code = int(HOLOSYM_NOT_INITIALIZED, c_int)
+        if (.not. associated(handle)) return
+        if (.not. c_associated(value_ptr)) then
+            code = refuse(handle, HOLOSYM_INVALID_ARGUMENT, caller // ": " // what // &
+                " is NULL")
+            return
+        end if
+        call c_f_pointer(value_ptr, target_value)
+        value = target_value
+        code = int(HOLOSYM_SUCCESS, c_int)
+        given = .true.
+    end function scalar_given
+
+    !> int holosym_step_p(holosym_integrator *integrator, holosym_real *q, holosym_real *p,
+    !! const holosym_real *h): `holosym_step` with h through a pointer (NULL h:
+    !! HOLOSYM_INVALID_ARGUMENT); otherwise its codes and messages.
+    integer(c_int) function holosym_step_p(ptr, q_ptr, p_ptr, h_ptr) &
+        bind(C, name="holosym_step_p")
+        type(c_ptr), value :: ptr    !! the handle
+        type(c_ptr), value :: q_ptr  !! holosym_real *: coordinates (n)
+        type(c_ptr), value :: p_ptr  !! holosym_real *: momenta (n)
+        type(c_ptr), value :: h_ptr  !! const holosym_real *: step size
+        real(c_real) :: h
+        if (.not. scalar_given(ptr, "holosym_step_p", h_ptr, "h", h, holosym_step_p)) return
+        holosym_step_p = holosym_step(ptr, q_ptr, p_ptr, h)
+    end function holosym_step_p
+
+    !> int holosym_integrate_p(holosym_integrator *integrator, holosym_real *q,
+    !! holosym_real *p, const holosym_real *h, int steps, holosym_observer_p_fn observer,
+    !! void *observer_data, int *steps_done): `holosym_integrate` with h through a pointer
+    !! and an observer that receives t through a pointer (NULL h: HOLOSYM_INVALID_ARGUMENT).
+    integer(c_int) function holosym_integrate_p(ptr, q_ptr, p_ptr, h_ptr, steps, observer, &
+                                                observer_data, steps_done) &
+        bind(C, name="holosym_integrate_p")
+        type(c_ptr), value :: ptr             !! the handle
+        type(c_ptr), value :: q_ptr           !! holosym_real *: coordinates (n)
+        type(c_ptr), value :: p_ptr           !! holosym_real *: momenta (n)
+        type(c_ptr), value :: h_ptr           !! const holosym_real *: step size
+        integer(c_int), value :: steps        !! number of steps
+        type(c_funptr), value :: observer     !! observer (t through a pointer) or NULL
+        type(c_ptr), value :: observer_data   !! passed to the observer
+        type(c_ptr), value :: steps_done      !! int *, or NULL
+        type(c_step_observer) :: bridge
+        real(c_real) :: h
+        if (.not. scalar_given(ptr, "holosym_integrate_p", h_ptr, "h", h, &
+                               holosym_integrate_p)) return
+        if (c_associated(observer)) call c_f_procpointer(observer, bridge%fn_p)
+        bridge%handle = ptr
+        bridge%data = observer_data
+        holosym_integrate_p = run_integrate(ptr, "holosym_integrate_p", q_ptr, p_ptr, &
+                                            real(h, wp), steps, bridge, steps_done)
+    end function holosym_integrate_p
+
+    !> int holosym_dense_output_p(const holosym_integrator *integrator,
+    !! const holosym_real *tau, holosym_real *q, holosym_real *p, holosym_real *lambda):
+    !! `holosym_dense_output` with tau through a pointer (NULL tau:
+    !! HOLOSYM_INVALID_ARGUMENT).
+    integer(c_int) function holosym_dense_output_p(ptr, tau_ptr, q_ptr, p_ptr, lambda_ptr) &
+        bind(C, name="holosym_dense_output_p")
+        type(c_ptr), value :: ptr         !! the handle
+        type(c_ptr), value :: tau_ptr     !! const holosym_real *: tau in [0, 1]
+        type(c_ptr), value :: q_ptr       !! holosym_real *: q~(tau) (n)
+        type(c_ptr), value :: p_ptr       !! holosym_real *: p~(tau) (n)
+        type(c_ptr), value :: lambda_ptr  !! holosym_real *: lambda~(tau) (m), NULL if m = 0
+        real(c_real) :: tau
+        if (.not. scalar_given(ptr, "holosym_dense_output_p", tau_ptr, "tau", tau, &
+                               holosym_dense_output_p)) return
+        holosym_dense_output_p = holosym_dense_output(ptr, tau, q_ptr, p_ptr, lambda_ptr)
+    end function holosym_dense_output_p
+
+    !> int holosym_model_set_parameter_p(holosym_integrator *integrator, const char *name,
+    !! const holosym_real *value): `holosym_model_set_parameter` with the value through a
+    !! pointer (NULL value: HOLOSYM_INVALID_ARGUMENT).
+    integer(c_int) function holosym_model_set_parameter_p(ptr, name_ptr, value_ptr) &
+        bind(C, name="holosym_model_set_parameter_p")
+        type(c_ptr), value :: ptr        !! the handle
+        type(c_ptr), value :: name_ptr   !! const char *: the parameter's name
+        type(c_ptr), value :: value_ptr  !! const holosym_real *: its new value
+        real(c_real) :: value
+        if (.not. scalar_given(ptr, "holosym_model_set_parameter_p", value_ptr, "value", &
+                               value, holosym_model_set_parameter_p)) return
+        holosym_model_set_parameter_p = holosym_model_set_parameter(ptr, name_ptr, value)
+    end function holosym_model_set_parameter_p
+
+    ! ---------------------------------------------------------------- H and phi at a state
+
+    !> int holosym_energy(holosym_integrator *integrator, const holosym_real *q,
+    !! const holosym_real *p, holosym_real *energy): H(q, p) of the handle's system into
+    !! *energy. Codes: HOLOSYM_INVALID_ARGUMENT (a NULL pointer), HOLOSYM_NONFINITE_VALUE
+    !! (H is not finite or its callback failed: *energy unchanged).
+    integer(c_int) function holosym_energy(ptr, q_ptr, p_ptr, energy_ptr) &
+        bind(C, name="holosym_energy")
+        type(c_ptr), value :: ptr         !! the handle
+        type(c_ptr), value :: q_ptr       !! const holosym_real *: coordinates (n)
+        type(c_ptr), value :: p_ptr       !! const holosym_real *: momenta (n)
+        type(c_ptr), value :: energy_ptr  !! holosym_real *: H(q, p)
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:), out
+        real(wp) :: energy
+        handle => ready_handle(ptr, "holosym_energy", holosym_energy)
+        if (.not. associated(handle)) return
+        if (.not. arrays_given(handle, "holosym_energy", q_ptr, p_ptr, holosym_energy)) return
+        if (.not. c_associated(energy_ptr)) then
+            holosym_energy = refuse(handle, HOLOSYM_INVALID_ARGUMENT, &
+                "holosym_energy: energy is NULL")
+            return
+        end if
+        q => reals_at(q_ptr, handle%system%n)
+        p => reals_at(p_ptr, handle%system%n)
+        handle%record%code = 0
+        energy = handle%system%hamiltonian(real(q, wp), real(p, wp))
+        if (ieee_is_finite(energy)) then
+            call c_f_pointer(energy_ptr, out)
+            out = real(energy, c_real)
+        else
+            status%code = HOLOSYM_NONFINITE_VALUE
+            status%message = "holosym_energy: H(q, p) is not finite"
+        end if
+        holosym_energy = finish(handle, status)
+    end function holosym_energy
+
+    !> int holosym_constraint(holosym_integrator *integrator, const holosym_real *q,
+    !! holosym_real *phi): the constraint values phi(q) (m of them; phi may be NULL when
+    !! m = 0). Codes: HOLOSYM_INVALID_ARGUMENT (a NULL pointer), HOLOSYM_NONFINITE_VALUE
+    !! (a value not finite or the callback failed: phi unchanged).
+    integer(c_int) function holosym_constraint(ptr, q_ptr, phi_ptr) &
+        bind(C, name="holosym_constraint")
+        type(c_ptr), value :: ptr      !! the handle
+        type(c_ptr), value :: q_ptr    !! const holosym_real *: coordinates (n)
+        type(c_ptr), value :: phi_ptr  !! holosym_real *: phi(q) (m), NULL if m = 0
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), out(:)
+        real(wp), allocatable :: phi(:)
+        handle => ready_handle(ptr, "holosym_constraint", holosym_constraint)
+        if (.not. associated(handle)) return
+        if (.not. c_associated(q_ptr)) then
+            holosym_constraint = refuse(handle, HOLOSYM_INVALID_ARGUMENT, &
+                "holosym_constraint: q is NULL")
+            return
+        end if
+        if (handle%system%m > 0 .and. .not. c_associated(phi_ptr)) then
+            holosym_constraint = refuse(handle, HOLOSYM_INVALID_ARGUMENT, &
+                "holosym_constraint: phi is NULL (m > 0)")
+            return
+        end if
+        q => reals_at(q_ptr, handle%system%n)
+        handle%record%code = 0
+        allocate (phi(handle%system%m))
+        call handle%system%constraint(real(q, wp), phi)
+        if (all(ieee_is_finite(phi))) then
+            if (handle%system%m > 0) then
+                out => reals_at(phi_ptr, handle%system%m)
+                out = real(phi, c_real)
+            end if
+        else
+            status%code = HOLOSYM_NONFINITE_VALUE
+            status%message = "holosym_constraint: phi(q) is not finite"
+        end if
+        holosym_constraint = finish(handle, status)
+    end function holosym_constraint
 
 #else
     implicit none

@@ -1,0 +1,721 @@
+"""holosym: high-order symplectic integration of Hamiltonian systems with holonomic
+constraints, in real128 (IEEE binary128), over the library's C interface.
+
+    import holosym
+    model = holosym.Model.builtin("fourbar")      # or Model.from_file(path), Model(text)
+    model.set(omega=3)                            # parameters by name
+    run = holosym.simulate(model, M=8, h="1/160", T=20, every=160)
+    run.t, run.q, run.p, run.energy_error, run.constraint_residual   # numpy float64
+    q, p = run.exact(-1)                          # Decimals, every digit of real128
+
+Reals going in (h, T, parameters, states) may be str ("1/160", "0.1"), Decimal, Fraction,
+int or float; each is rounded once, to the nearest binary128, so "1/160" and
+Fraction(1, 160) lose no digit on the way (a float is taken at its exact binary value).
+Reals coming out are numpy float64 arrays (rounded to nearest) or, through the `exact`
+methods, Decimals with every digit of the binary128 value.
+
+Failures raise :class:`Error` with the library's status code (`.code`, the HOLOSYM_*
+constants below) and message (`.message`); the state of an :class:`Integrator` is then
+unchanged (integrate: the last good step).
+"""
+
+from decimal import Decimal
+from fractions import Fraction
+import os
+
+import numpy as np
+
+from . import _binary128 as binary128
+from . import _clib
+
+try:
+    from importlib.metadata import version as _version
+    __version__ = _version("holosym")
+except Exception:  # pragma: no cover - not installed as a distribution
+    __version__ = "unknown"
+
+__all__ = ["Error", "Model", "Integrator", "Run", "EnsembleResult", "simulate", "ensemble",
+           "binary128", "builtin_models"]
+
+# Status codes (include/holosym.h).
+SUCCESS = 0
+INVALID_ORDER = -1
+INVALID_DIMENSION = -2
+SIZE_MISMATCH = -3
+INVALID_STEP_SIZE = -4
+INVALID_STEP_COUNT = -5
+OFF_MANIFOLD = -6
+USER_ABORT = -7
+NOT_INITIALIZED = -8
+INVALID_ARGUMENT = -9
+INVALID_MODEL = -10
+INCONSISTENT_SYSTEM = -11
+SINGULAR_MATRIX = 1
+NEWTON_NOT_CONVERGED = 2
+NEWTON_DIVERGED = 3
+NONFINITE_VALUE = 4
+RANK_DEFICIENT_CONSTRAINTS = 5
+STEP_TOO_LARGE = 6
+STEP_TOO_SMALL = 7
+
+_CODE_NAMES = {value: "HOLOSYM_" + name for name, value in globals().items()
+               if name.isupper() and isinstance(value, int) and not name.startswith("_")}
+
+
+class Error(Exception):
+    """A failure of holosym: `code` is the library's status code (< 0 invalid input,
+    > 0 numerical failure; the HOLOSYM_* values, also module constants such as
+    holosym.INVALID_STEP_SIZE), `message` says what and where."""
+
+    def __init__(self, code, message):
+        self.code = int(code)
+        self.message = message
+        super().__init__(f"{message} [{_CODE_NAMES.get(self.code, 'code')} = {self.code}]")
+
+
+def _check(code, handle):
+    """Raise Error for a nonzero status code of a call on `handle`."""
+    if code != SUCCESS:
+        raise Error(code, _clib.message_of(handle))
+
+
+def _real_bytes(value, what):
+    """The binary128 bytes of one real input, Error(INVALID_ARGUMENT) naming `what`."""
+    try:
+        return binary128.from_value(value)
+    except (TypeError, ValueError) as error:
+        raise Error(INVALID_ARGUMENT, f"{what}: {error}") from None
+
+
+def _vector_bytes(values, n, what):
+    """The binary128 bytes of n real inputs (a sequence or numpy array)."""
+    values = list(np.asarray(values, dtype=object).ravel()) if isinstance(values, np.ndarray) \
+        else list(values)
+    if len(values) != n:
+        raise Error(SIZE_MISMATCH, f"{what}: {n} values expected, got {len(values)}")
+    return b"".join(_real_bytes(v, f"{what}[{i}]") for i, v in enumerate(values))
+
+
+def _decimals(raw):
+    """Tuple of exact Decimals of a buffer of binary128 values."""
+    return tuple(binary128.to_decimal(piece) for piece in _clib.split(raw))
+
+
+def _floats(raw):
+    """float64 numpy array of a buffer of binary128 values."""
+    return np.array([binary128.to_float(piece) for piece in _clib.split(raw)], dtype=float)
+
+
+def _check_precision(precision):
+    if precision != "quad":
+        raise Error(INVALID_ARGUMENT, f"precision={precision!r}: this package holds the "
+                    f"real128 library only (precision='quad')")
+
+
+# ---------------------------------------------------------------------------- models
+
+_MODELS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "models")
+_ALIASES = {"pendulum": "spherical_pendulum"}
+
+
+def builtin_models():
+    """Names accepted by Model.builtin: the model files shipped with the package (copies
+    of the repository's example/models/*.hsm) and the alias "pendulum" (the spherical
+    pendulum)."""
+    names = sorted(f[:-4] for f in os.listdir(_MODELS_DIR) if f.endswith(".hsm")) \
+        if os.path.isdir(_MODELS_DIR) else []
+    return sorted(names + [a for a, target in _ALIASES.items() if target in names])
+
+
+class _Handle:
+    """An owned C handle (holosym_destroy when collected or closed)."""
+
+    def __init__(self, pointer):
+        self.pointer = pointer
+
+    def close(self):
+        if self.pointer:
+            _clib.destroy(self.pointer)
+            self.pointer = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:  # pragma: no cover - interpreter shutdown
+            pass
+
+
+def _create(text, M, N, G, label="model"):
+    """A handle for a model text and (M, N, G); Error with the library's message (for a
+    refused text "model:LINE:COLUMN: ...", `label` instead of "model")."""
+    for name, value in (("M", M), ("N", N), ("G", G)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise Error(INVALID_ORDER, f"{name} must be an int, got {value!r}")
+    pointer = _clib.model_create(text.encode("utf-8"), int(M), int(N), int(G))
+    handle = _Handle(pointer)
+    code = _clib.status(pointer)
+    if code != SUCCESS:
+        message = _clib.message_of(pointer)
+        if label != "model" and message.startswith("model:"):
+            message = label + message[len("model"):]
+        handle.close()
+        raise Error(code, message)
+    return handle
+
+
+class Model:
+    """A constrained Hamiltonian system from the text of a model file (docs/models.md has
+    the grammar): the library parses it and derives every derivative itself.
+
+    Model(text) refuses a bad text with Error(INVALID_MODEL, "model:LINE:COLUMN: ...").
+    Parameters are set by name (:meth:`set`) and apply to every integrator made from the
+    model afterwards."""
+
+    def __init__(self, text, name=None):
+        """The model of `text` (str); `name` labels it (and its error messages)."""
+        if not isinstance(text, str):
+            raise Error(INVALID_ARGUMENT, f"a model text (str) is expected, got "
+                        f"{type(text).__name__}")
+        self.text = text
+        self.name = name or "model"
+        self._handle = _create(text, 2, 1, 3, label=self.name)
+        self._settings = []  # (name, binary128 bytes) in the order set
+        n, m = _clib.ctypes.c_int(), _clib.ctypes.c_int()
+        _check(_clib.sizes(self._handle.pointer, n, m), self._handle.pointer)
+        self.n, self.m = n.value, m.value
+        count = _clib.parameter_count(self._handle.pointer)
+        #: Parameter names, in the order of the file.
+        self.parameter_names = tuple(self._name(_clib.NAME_PARAMETER, i + 1)
+                                     for i in range(count))
+        #: Coordinate names q1..qn.
+        self.coordinate_names = tuple(self._name(_clib.NAME_COORDINATE, i + 1)
+                                      for i in range(self.n))
+        #: Momentum names p1..pn.
+        self.momentum_names = tuple(self._name(_clib.NAME_MOMENTUM, i + 1)
+                                    for i in range(self.n))
+
+    def _name(self, what, index):
+        handle = self._handle.pointer
+        length = _clib.model_name(handle, what, index, None, 0)
+        if length < 0:
+            raise Error(length, _clib.message_of(handle))
+        buffer = _clib.ctypes.create_string_buffer(length + 1)
+        _clib.model_name(handle, what, index, buffer, length + 1)
+        return buffer.value.decode("utf-8")
+
+    @classmethod
+    def from_file(cls, path):
+        """The model of a file (its errors say "PATH:LINE:COLUMN: ...")."""
+        path = os.fspath(path)
+        try:
+            with open(path, encoding="utf-8") as stream:
+                text = stream.read()
+        except OSError as error:
+            raise Error(INVALID_ARGUMENT, f"cannot read the model file {path}: "
+                        f"{error.strerror}") from None
+        return cls(text, name=path)
+
+    @classmethod
+    def builtin(cls, name):
+        """A model shipped with the package: see :func:`builtin_models` (e.g. "pendulum",
+        "planar_pendulum", "double_pendulum", "spring_linkage", "magnetic_sphere",
+        "sphere_dumbbell", "water", "fourbar")."""
+        available = builtin_models()
+        if name not in available:
+            raise Error(INVALID_ARGUMENT, f"no built-in model {name!r}; the built-in "
+                        f"models are: {', '.join(available)}")
+        model = cls.from_file(os.path.join(_MODELS_DIR, _ALIASES.get(name, name) + ".hsm"))
+        model.name = name
+        return model
+
+    def save(self, path):
+        """Write the model's text to a file (Model.from_file reads it back)."""
+        with open(os.fspath(path), "w", encoding="utf-8") as stream:
+            stream.write(self.text)
+
+    def set(self, **values):
+        """Set parameters by name, e.g. model.set(g=2.0, L="1/3"): each value rounded
+        once to the nearest binary128. Error(INVALID_ARGUMENT) for an unknown name or a
+        value that is not finite (the model then keeps its earlier values). Returns the
+        model."""
+        for name, value in values.items():
+            raw = _real_bytes(value, f"parameter {name}")
+            buffer = _clib.Reals(1, raw)
+            handle = self._handle.pointer
+            _check(_clib.set_parameter_p(handle, name.encode("utf-8"), buffer.address),
+                   handle)
+            self._settings.append((name, raw))
+        return self
+
+    def get(self, name):
+        """The value of a parameter, exactly (Decimal)."""
+        buffer = _clib.Reals(1)
+        handle = self._handle.pointer
+        _check(_clib.get_parameter(handle, name.encode("utf-8"), buffer.address), handle)
+        return binary128.to_decimal(buffer.get_bytes())
+
+    @property
+    def parameters(self):
+        """{name: Decimal} of every parameter's current value."""
+        return {name: self.get(name) for name in self.parameter_names}
+
+    def initial_state(self):
+        """(q, p): the start the model states with its current parameters (velocities
+        turned into momenta, projected onto the manifold when off it), as Decimals."""
+        q, p = _clib.Reals(self.n), _clib.Reals(self.n)
+        handle = self._handle.pointer
+        _check(_clib.initial_state(handle, q.address, p.address), handle)
+        return _decimals(q.get_bytes()), _decimals(p.get_bytes())
+
+    def _apply_settings(self, handle):
+        for name, raw in self._settings:
+            buffer = _clib.Reals(1, raw)
+            _check(_clib.set_parameter_p(handle.pointer, name.encode("utf-8"),
+                                         buffer.address), handle.pointer)
+
+    def __repr__(self):
+        return f"<holosym.Model {self.name} n={self.n} m={self.m}>"
+
+
+# ---------------------------------------------------------------------------- integrator
+
+def _orders(M, N, G):
+    """(M, N, G) with the defaults of `holosym simulate`: N = M - 1, G = max(M, N) + 1."""
+    if N is None and isinstance(M, (int, np.integer)):
+        N = M - 1
+    if G is None and isinstance(M, (int, np.integer)) and isinstance(N, (int, np.integer)):
+        G = max(M, N) + 1
+    return M, N, G
+
+
+class Integrator:
+    """Step-by-step integration of a model with the symplectic scheme (M, N, G) (order
+    2 min(M, N + 1) when G is large enough; defaults N = M - 1, G = M + 1).
+
+    The state starts at the model's initial state, or at (q, p) given (any real inputs,
+    rounded to binary128). `h` is the default step size of step() and integrate().
+    The integrator owns a C handle; close() (or a with block) frees it early."""
+
+    def __init__(self, model, M=8, N=None, G=None, h=None, q=None, p=None,
+                 precision="quad"):
+        _check_precision(precision)
+        if not isinstance(model, Model):
+            raise Error(INVALID_ARGUMENT, f"a holosym.Model is expected, got "
+                        f"{type(model).__name__}")
+        M, N, G = _orders(M, N, G)
+        self.model = model
+        self.orders = (M, N, G)
+        self.n, self.m = model.n, model.m
+        self._handle = _create(model.text, M, N, G, label=model.name)
+        model._apply_settings(self._handle)
+        self._q, self._p = _clib.Reals(self.n), _clib.Reals(self.n)
+        self._h = None if h is None else self._step_bytes(h)
+        #: The time of the state: the sum of the steps taken (exact, a Fraction).
+        self.t = Fraction(0)
+        self._pending = None
+        if q is None and p is None:
+            _check(_clib.initial_state(self._handle.pointer, self._q.address,
+                                       self._p.address), self._handle.pointer)
+            #: The note of the model's start (e.g. that it was projected), or "".
+            self.note = _clib.message_of(self._handle.pointer)
+        else:
+            if q is None or p is None:
+                raise Error(INVALID_ARGUMENT, "give both q and p, or neither")
+            self.set_state(q, p)
+            self.note = ""
+
+    # -- state
+    def set_state(self, q, p, t=0):
+        """Set the state (each value rounded once to binary128) and the time t."""
+        q_raw = _vector_bytes(q, self.n, "q")
+        p_raw = _vector_bytes(p, self.n, "p")
+        negative, t_value = binary128.parse_value(t)
+        if not isinstance(t_value, Fraction):
+            raise Error(INVALID_ARGUMENT, f"t must be finite, got {t!r}")
+        self._q.set_bytes(q_raw)
+        self._p.set_bytes(p_raw)
+        self.t = -t_value if negative else t_value
+
+    @property
+    def state(self):
+        """(q, p) as tuples of Decimals, every digit of the binary128 values."""
+        return _decimals(self._q.get_bytes()), _decimals(self._p.get_bytes())
+
+    @property
+    def state_float(self):
+        """(q, p) as numpy float64 arrays (rounded to nearest)."""
+        return _floats(self._q.get_bytes()), _floats(self._p.get_bytes())
+
+    @property
+    def q(self):
+        """q as a numpy float64 array."""
+        return _floats(self._q.get_bytes())
+
+    @property
+    def p(self):
+        """p as a numpy float64 array."""
+        return _floats(self._p.get_bytes())
+
+    def _step_bytes(self, h):
+        return _real_bytes(h, "h")
+
+    def _h_buffer(self, h):
+        if h is None:
+            if self._h is None:
+                raise Error(INVALID_STEP_SIZE, "no step size: give h here or to the "
+                            "Integrator")
+            raw = self._h
+        else:
+            raw = self._step_bytes(h)
+        return _clib.Reals(1, raw), raw
+
+    # -- the calls
+    def step(self, h=None):
+        """One step of size h (default: the integrator's h) in place. Error on failure,
+        the state unchanged (h <= 0: INVALID_STEP_SIZE)."""
+        buffer, raw = self._h_buffer(h)
+        handle = self._handle.pointer
+        _check(_clib.step_p(handle, self._q.address, self._p.address, buffer.address),
+               handle)
+        self.t += binary128.to_fraction(raw)
+
+    def integrate(self, steps, h=None, observer=None, exact=False):
+        """`steps` steps of size h in place; returns the number of steps done.
+
+        observer(step, t, q, p) is called after each step (step from 1, t the time of the
+        state, q and p float64 arrays; with exact=True t, q, p are Decimals). Inside it,
+        integrator.dense_output(tau) evaluates the step just taken. A truthy return stops
+        the run (no error: the steps done are returned); an exception raised by the
+        observer stops it too and propagates from integrate. The state is then the last
+        step's (also after an Error of the library: the last good step)."""
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
+            raise Error(INVALID_STEP_COUNT, f"steps must be an int, got {steps!r}")
+        buffer, raw = self._h_buffer(h)
+        h_value = binary128.to_fraction(raw) if binary128.to_decimal(raw).is_finite() \
+            else None
+        t0 = self.t
+        handle = self._handle.pointer
+        n = self.n
+        stopped = [False]
+        size = binary128.BYTES * n
+
+        def bridge(_handle, step, _t, q_ptr, p_ptr, _data):
+            try:
+                q_raw = _clib.ctypes.string_at(q_ptr, size)
+                p_raw = _clib.ctypes.string_at(p_ptr, size)
+                t = t0 + step * h_value
+                if exact:
+                    result = observer(step, _fraction_to_decimal(t), _decimals(q_raw),
+                                      _decimals(p_raw))
+                else:
+                    result = observer(step, float(t), _floats(q_raw), _floats(p_raw))
+                if result:
+                    stopped[0] = True
+                    return 1
+                return 0
+            except BaseException as error:  # re-raised after the C call returns
+                self._pending = error
+                return 1
+
+        callback = _clib.OBSERVER(bridge) if observer is not None else None
+        done = _clib.ctypes.c_int(0)
+        self._pending = None
+        code = _clib.integrate_p(handle, self._q.address, self._p.address, buffer.address,
+                                 int(steps),
+                                 _clib.ctypes.cast(callback, _clib.ctypes.c_void_p)
+                                 if callback else None, None, done)
+        if done.value > 0:
+            self.t = t0 + done.value * h_value
+        if self._pending is not None:
+            pending, self._pending = self._pending, None
+            raise pending
+        if code == USER_ABORT and stopped[0]:
+            return done.value
+        _check(code, handle)
+        return done.value
+
+    def dense_output(self, tau, exact=False):
+        """(q~, p~, lambda~) of the last step at tau in [0, 1] (numpy float64 arrays, or
+        with exact=True tuples of Decimals). Error(NOT_INITIALIZED) before any step."""
+        tau_buffer = _clib.Reals(1, _real_bytes(tau, "tau"))
+        q, p, lam = _clib.Reals(self.n), _clib.Reals(self.n), _clib.Reals(self.m)
+        handle = self._handle.pointer
+        _check(_clib.dense_output_p(handle, tau_buffer.address, q.address, p.address,
+                                    lam.address), handle)
+        convert = _decimals if exact else _floats
+        return convert(q.get_bytes()), convert(p.get_bytes()), convert(lam.get_bytes())
+
+    def project(self):
+        """Project the state onto the constraint manifold {phi = 0, Phi H_p = 0}."""
+        handle = self._handle.pointer
+        _check(_clib.project(handle, self._q.address, self._p.address), handle)
+
+    def energy(self, exact=False):
+        """H at the state (float, or Decimal with exact=True)."""
+        raw = self._energy_bytes(self._q, self._p)
+        return binary128.to_decimal(raw) if exact else binary128.to_float(raw)
+
+    def constraint(self, exact=False):
+        """phi at the state (m values: float64 array, or Decimals with exact=True)."""
+        raw = self._constraint_bytes(self._q)
+        return _decimals(raw) if exact else _floats(raw)
+
+    def _energy_bytes(self, q, p):
+        out = _clib.Reals(1)
+        handle = self._handle.pointer
+        _check(_clib.energy(handle, q.address, p.address, out.address), handle)
+        return out.get_bytes()
+
+    def _constraint_bytes(self, q):
+        out = _clib.Reals(self.m)
+        handle = self._handle.pointer
+        _check(_clib.constraint(handle, q.address, out.address), handle)
+        return out.get_bytes()[:binary128.BYTES * self.m]
+
+    def close(self):
+        """Free the C handle (the integrator is unusable afterwards)."""
+        self._handle.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __repr__(self):
+        return f"<holosym.Integrator {self.model.name} (M, N, G) = {self.orders}>"
+
+
+def _fraction_to_decimal(x):
+    """The exact Decimal of a Fraction whose denominator is a power of two."""
+    den = x.denominator
+    if den & (den - 1):
+        raise ValueError("not a dyadic fraction")
+    k = den.bit_length() - 1
+    return binary128.to_decimal(binary128.from_value(0)) if x == 0 else \
+        _decimal_exact(x.numerator, k)
+
+
+def _decimal_exact(numerator, k):
+    """numerator / 2**k exactly as a Decimal."""
+    from decimal import Context, Inexact, Rounded
+    digits = abs(numerator).bit_length() + k + 10
+    context = Context(prec=digits, Emax=999999999, Emin=-999999999, traps=[Inexact, Rounded])
+    return context.scaleb(context.multiply(Decimal(numerator), context.power(5, k)), -k)
+
+
+# ---------------------------------------------------------------------------- runs
+
+def _step_count(h_raw, T, steps):
+    """The number of steps: `steps`, or nint(T/h) as `holosym simulate` takes it."""
+    if steps is not None:
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
+            raise Error(INVALID_STEP_COUNT, f"steps must be an int >= 0, got {steps!r}")
+        return int(steps)
+    if T is None:
+        raise Error(INVALID_ARGUMENT, "give T (the final time) or steps")
+    h_dec = binary128.to_decimal(h_raw)
+    if not h_dec.is_finite() or h_dec <= 0:
+        raise Error(INVALID_STEP_SIZE, f"h must be > 0 and finite, got {h_dec}")
+    t_value = binary128.to_decimal(_real_bytes(T, "T"))
+    if not t_value.is_finite() or t_value < 0:
+        raise Error(INVALID_ARGUMENT, f"T must be >= 0 and finite, got {T!r}")
+    ratio = Fraction(t_value) / binary128.to_fraction(h_raw)
+    count = int(ratio + Fraction(1, 2))  # nint (ratio >= 0): half away from zero
+    if count > 2147483647:
+        raise Error(INVALID_STEP_COUNT, f"T/h gives {count} steps, more than 2147483647")
+    return count
+
+
+class Run:
+    """The rows of :func:`simulate`: t = 0, every `every` steps and the last step.
+
+    Arrays (numpy float64): t (rows), q and p (rows x n), energy (H, rows),
+    energy_error ((H - H0)/H0 as `holosym simulate` writes it; H - H0 when H0 = 0),
+    constraint_residual (max|phi| at the row's state; 0 when m = 0). exact(row) gives
+    the row's (q, p) as Decimals with every digit."""
+
+    def __init__(self, model, orders, h_raw, rows, energies, residuals, steps):
+        self.model = model
+        self.orders = orders
+        self.steps = steps
+        self._h = h_raw
+        self._rows = rows  # [(t bytes, q bytes, p bytes)]
+        self._energies = energies
+        self.t = np.array([binary128.to_float(r[0]) for r in rows], dtype=float)
+        self.q = np.array([_floats(r[1]) for r in rows], dtype=float).reshape(len(rows), -1)
+        self.p = np.array([_floats(r[2]) for r in rows], dtype=float).reshape(len(rows), -1)
+        self.energy = np.array([binary128.to_float(e) for e in energies], dtype=float)
+        h0 = binary128.to_fraction(energies[0])
+        scale = h0 if h0 != 0 else Fraction(1)
+        self.energy_error = np.array(
+            [float((binary128.to_fraction(e) - h0) / scale) for e in energies], dtype=float)
+        self.constraint_residual = np.array(residuals, dtype=float)
+
+    @property
+    def h(self):
+        """The step size as used (binary128), exactly."""
+        return binary128.to_decimal(self._h)
+
+    def __len__(self):
+        return len(self._rows)
+
+    def exact(self, row):
+        """(q, p) of a row (negative: from the end) as tuples of Decimals, exact."""
+        _, q, p = self._rows[row]
+        return _decimals(q), _decimals(p)
+
+    def exact_t(self, row):
+        """t of a row as a Decimal, exact (the library's k h in real128)."""
+        return binary128.to_decimal(self._rows[row][0])
+
+    def exact_energy(self, row):
+        """H of a row as a Decimal, exact."""
+        return binary128.to_decimal(self._energies[row])
+
+
+def _residual(integrator, q_buffer):
+    """max|phi(q)| as a float (0 when m = 0), from the exact values."""
+    raw = integrator._constraint_bytes(q_buffer)
+    values = [abs(binary128.to_fraction(piece)) for piece in _clib.split(raw)]
+    return float(max(values)) if values else 0.0
+
+
+def simulate(model, M=8, N=None, G=None, h=None, T=None, steps=None, every=1, q=None,
+             p=None, precision="quad"):
+    """Integrate `model` from its initial state (or (q, p)) like `holosym simulate`:
+    (M, N, G) with N = M - 1 and G = max(M, N) + 1 by default, step size h (str, Decimal,
+    Fraction, int or float), nint(T/h) steps (or `steps`), a row at t = 0, every `every`
+    steps and after the last. Returns a :class:`Run`; Error on a failure."""
+    _check_precision(precision)
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+        raise Error(INVALID_ARGUMENT, f"every must be an int >= 1, got {every!r}")
+    if h is None:
+        raise Error(INVALID_STEP_SIZE, "give the step size h")
+    h_raw = _real_bytes(h, "h")
+    count = _step_count(h_raw, T, steps)
+    integrator = Integrator(model, M, N, G, h=h, q=q, p=p)
+    try:
+        rows = [(binary128.from_value(0), integrator._q.get_bytes(),
+                 integrator._p.get_bytes())]
+        size = binary128.BYTES * integrator.n
+        handle = integrator._handle.pointer
+        pending = []
+
+        def record(_handle, step, t_ptr, q_ptr, p_ptr, _data):
+            try:
+                if step % every == 0 or step == count:
+                    rows.append((_clib.ctypes.string_at(t_ptr, binary128.BYTES),
+                                 _clib.ctypes.string_at(q_ptr, size),
+                                 _clib.ctypes.string_at(p_ptr, size)))
+                return 0
+            except BaseException as error:  # pragma: no cover - memory errors
+                pending.append(error)
+                return 1
+
+        callback = _clib.OBSERVER(record)
+        h_buffer = _clib.Reals(1, h_raw)
+        done = _clib.ctypes.c_int(0)
+        code = _clib.integrate_p(handle, integrator._q.address, integrator._p.address,
+                                 h_buffer.address, count,
+                                 _clib.ctypes.cast(callback, _clib.ctypes.c_void_p), None,
+                                 done)
+        if pending:
+            raise pending[0]
+        _check(code, handle)
+        energies, residuals = [], []
+        q_buffer, p_buffer = _clib.Reals(integrator.n), _clib.Reals(integrator.n)
+        for _, q_raw, p_raw in rows:
+            q_buffer.set_bytes(q_raw)
+            p_buffer.set_bytes(p_raw)
+            energies.append(integrator._energy_bytes(q_buffer, p_buffer))
+            residuals.append(_residual(integrator, q_buffer))
+        return Run(model, integrator.orders, h_raw, rows, energies, residuals, done.value)
+    finally:
+        integrator.close()
+
+
+class EnsembleResult:
+    """The final states of :func:`ensemble`, one row per member: q and p (members x n),
+    energy_error ((H - H0)/H0 at the end) and constraint_residual (max|phi| at the end)
+    as numpy float64 arrays, status (int array, 0 for success) and messages (str list);
+    a failed member's row is NaN. exact(i) gives member i's final (q, p) as Decimals."""
+
+    def __init__(self, n):
+        self.n = n
+        self._finals = []
+        self.status = []
+        self.messages = []
+        self.energy_error = []
+        self.constraint_residual = []
+
+    def _finish(self):
+        nan_row = [float("nan")] * self.n
+        self.q = np.array([_floats(f[0]) if f else nan_row for f in self._finals],
+                          dtype=float).reshape(len(self._finals), self.n)
+        self.p = np.array([_floats(f[1]) if f else nan_row for f in self._finals],
+                          dtype=float).reshape(len(self._finals), self.n)
+        self.energy_error = np.array(self.energy_error, dtype=float)
+        self.constraint_residual = np.array(self.constraint_residual, dtype=float)
+        self.status = np.array(self.status, dtype=int)
+
+    def __len__(self):
+        return len(self._finals)
+
+    def exact(self, member):
+        """Member's final (q, p) as tuples of Decimals (Error for a failed member)."""
+        final = self._finals[member]
+        if final is None:
+            raise Error(int(self.status[member]), self.messages[member])
+        return _decimals(final[0]), _decimals(final[1])
+
+
+def ensemble(model, states, M=8, N=None, G=None, h=None, T=None, steps=None,
+             errors="raise", precision="quad"):
+    """Integrate `model` from each of `states` (an iterable of (q, p) pairs of real
+    inputs) over nint(T/h) steps (or `steps`) with (M, N, G) and step size h; returns an
+    :class:`EnsembleResult` of the final states.
+
+    The members run one after another on one integrator in this process (a loop over
+    the C interface; the library's own ensembles, `holosym ensemble`, run in parallel).
+    errors="raise": the first failing member raises Error (its index in the message);
+    errors="record": failures are recorded in status/messages and the loop goes on."""
+    _check_precision(precision)
+    if errors not in ("raise", "record"):
+        raise Error(INVALID_ARGUMENT, f"errors must be 'raise' or 'record', got {errors!r}")
+    if h is None:
+        raise Error(INVALID_STEP_SIZE, "give the step size h")
+    h_raw = _real_bytes(h, "h")
+    count = _step_count(h_raw, T, steps)
+    members = list(states)
+    result = EnsembleResult(model.n)
+    with Integrator(model, M, N, G, h=h) as integrator:
+        for index, state in enumerate(members):
+            try:
+                q, p = state
+                integrator.set_state(q, p)
+                h0 = binary128.to_fraction(integrator._energy_bytes(integrator._q,
+                                                                    integrator._p))
+                integrator.integrate(count)
+                energy = binary128.to_fraction(integrator._energy_bytes(integrator._q,
+                                                                        integrator._p))
+            except (Error, TypeError, ValueError) as error:
+                if not isinstance(error, Error):
+                    error = Error(INVALID_ARGUMENT, f"states[{index}]: {error}")
+                if errors == "raise":
+                    raise Error(error.code, f"ensemble member {index}: "
+                                f"{error.message}") from None
+                result._finals.append(None)
+                result.status.append(error.code)
+                result.messages.append(error.message)
+                result.energy_error.append(float("nan"))
+                result.constraint_residual.append(float("nan"))
+                continue
+            result._finals.append((integrator._q.get_bytes(), integrator._p.get_bytes()))
+            result.status.append(SUCCESS)
+            result.messages.append("")
+            scale = h0 if h0 != 0 else Fraction(1)
+            result.energy_error.append(float((energy - h0) / scale))
+            result.constraint_residual.append(_residual(integrator, integrator._q))
+    result._finish()
+    return result
