@@ -366,3 +366,18 @@ def test_ensemble_errors_raise_or_are_recorded():
     assert "3 values" not in result.messages[0] and "2 values" in result.messages[1]
     with pytest.raises(holosym.Error):
         result.exact(1)
+
+
+def test_status_codes_follow_the_header():
+    """The package's status codes are those of include/holosym.h (the header is itself
+    tested against the library's table by the Fortran suite): every HOLOSYM_ code there
+    with its value, and no other."""
+    import re
+    from conftest import REPO
+    with open(os.path.join(REPO, "include", "holosym.h"), encoding="utf-8") as header:
+        defined = {name: int(value) for name, value in re.findall(
+            r"^#define HOLOSYM_([A-Z_]+) \(?(-?\d+)\)?", header.read(), re.M)
+            if not name.startswith("NAME_")}
+    ours = {name: getattr(holosym, name) for name in dir(holosym)
+            if name.isupper() and isinstance(getattr(holosym, name), int)}
+    assert ours == defined
