@@ -6,7 +6,7 @@
 !! Run from the project's root: `fpm run --profile release --example model_file`.
 !! Output:
 !!     n = 4, m = 3, separable: T
-!!     the initial velocities are not tangent to the constraints (|Phi v| = 7.24685E+0000)
+!!     the initial velocities are not tangent to the constraints (|Phi v| = 7.247)
 !!     q(10)          =  0.9922185549 -0.1245083904  2.5248774333  2.4544365029
 !!     max |H/H0 - 1| =  5.624E-32
 !!     max |phi|      =  4.622E-33
