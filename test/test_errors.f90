@@ -107,7 +107,8 @@ contains
             new_test("dense_output_bad_tau_and_sizes", dense_bad_arguments), &
             new_test("observer_halts_integrate", observer_halts), &
             new_test("integrate_fails_mid_run", integrate_fails_mid_run), &
-            new_test("numbers_in_messages_are_short", short_numbers) &
+            new_test("numbers_in_messages_are_short", short_numbers), &
+            new_test("structured_changed_after_init_refused", structured_after_init) &
             ]
     end function errors_tests
 
@@ -986,5 +987,26 @@ contains
                 real_str(value) // "', expected '" // text // "'")
         end subroutine expect
     end subroutine short_numbers
+
+    !> `structured` is read by init (it chooses the path): a change after init is refused
+    !! by step and integrate, naming it, the state unchanged; init again takes it.
+    subroutine structured_after_init(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum), target :: sys
+        type(constrained_integrator) :: integ
+        real(wp) :: q0(3), p0(3)
+        call pendulum_start(sys, q0, p0)
+        call init_ok(error, integ, sys, 2, 1, 3)
+        if (allocated(error)) return
+        integ%structured = .false.
+        call check_both_fail(error, integ, sys, q0, p0, step_size, HOLOSYM_INVALID_ARGUMENT, &
+            "structured after init", "structured was changed after init")
+        if (allocated(error)) return
+        call init_ok(error, integ, sys, 2, 1, 3)
+        if (allocated(error)) return
+        integ%structured = .true.
+        call check_both_fail(error, integ, sys, q0, p0, step_size, HOLOSYM_INVALID_ARGUMENT, &
+            "structured back on after init", "call init again")
+    end subroutine structured_after_init
 
 end module test_errors

@@ -263,6 +263,8 @@ module holosym_integrator
         logical :: check_system = .true.
         ! The check of the system has passed since `init`.
         logical, private :: system_checked = .false.
+        ! `structured` as `init` read it (a change after init is refused, not ignored).
+        logical, private :: structured_at_init = .true.
         type(discrete_scheme), private :: scheme
         type(reduced_step_t), private :: reduced
         logical, private :: reduced_active = .false.
@@ -332,6 +334,7 @@ contains
         ! Checks of (M, N, G) and of the sizes are the general scheme's.
         call scheme%check(M, N, G, sys%n, sys%m, local)
         self%reduced_active = .false.
+        self%structured_at_init = self%structured
         if (local%ok() .and. self%structured) then
             allocate (mass(sys%n))
             self%reduced_active = reduced_structure(sys, mass)
@@ -403,6 +406,9 @@ contains
             call set_status(status, HOLOSYM_NOT_INITIALIZED, "call init before step or integrate")
         else if (.not. settings_valid(self, rank_message)) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, rank_message)
+        else if (self%structured .neqv. self%structured_at_init) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "structured was changed " // &
+                "after init, which reads it (it chooses the path); call init again")
         else if (sys%n /= self%scheme%n .or. sys%m /= self%scheme%m) then
             call set_status(status, HOLOSYM_INVALID_DIMENSION, "system has n = " // int_str(sys%n) &
                 // ", m = " // int_str(sys%m) // " but the integrator was set up for n = " // &
