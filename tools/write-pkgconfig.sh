@@ -15,5 +15,6 @@ sed -e "s|@HOLOSYM_PC_PREFIX@|\${pcfiledir}/$up|" \
     -e "s|@HOLOSYM_PC_LIBDIR@|\${prefix}/$libdir|" \
     -e "s|@HOLOSYM_PC_INCLUDEDIR@|\${prefix}/$moduledir|" \
     -e "s|@HOLOSYM_PC_VERSION@|$version|" \
+    -e "s|@HOLOSYM_PC_LIBNAME@|holosym|" \
     -e "s|@HOLOSYM_PC_OPENMP@|-fopenmp|" \
     "$root/holosym.pc.in"

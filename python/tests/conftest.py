@@ -1,5 +1,5 @@
-"""Shared helpers of the tests: the `holosym` command (HOLOSYM_EXE, set by
-`make python-test`) and the number format of its CSV."""
+"""Shared helpers of the tests: the `holosym` command (HOLOSYM_EXE) and its real64 build
+(HOLOSYM_EXE64), both set by `make python-test`, and the number format of their CSV."""
 
 import csv
 import io
@@ -20,6 +20,16 @@ def holosym_exe():
     exe = os.environ.get("HOLOSYM_EXE")
     if not exe:
         pytest.skip("HOLOSYM_EXE is not set (make python-test sets it)")
+    return exe
+
+
+@pytest.fixture(scope="session")
+def holosym_exe64():
+    """Path of the holosym command of the real64 build (HOLOSYM_EXE64), for the
+    comparisons of precision="double"; skipped without it."""
+    exe = os.environ.get("HOLOSYM_EXE64")
+    if not exe:
+        pytest.skip("HOLOSYM_EXE64 is not set (make python-test sets it)")
     return exe
 
 

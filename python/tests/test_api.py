@@ -87,11 +87,12 @@ def test_run_arrays_and_definitions():
     assert len(holosym.simulate(model, M=2, h="1/16", steps=10, every=4)) == 4
 
 
-def test_precision_other_than_quad_is_refused():
+def test_precision_other_than_quad_or_double_is_refused():
     with pytest.raises(holosym.Error) as caught:
         holosym.simulate(holosym.Model.builtin("pendulum"), M=2, h=0.1, T=1,
-                         precision="double")
+                         precision="single")
     assert caught.value.code == holosym.INVALID_ARGUMENT
+    assert "'quad'" in caught.value.message and "'double'" in caught.value.message
 
 
 # ---------------------------------------------------------------- models

@@ -1,5 +1,6 @@
 """holosym: high-order symplectic integration of Hamiltonian systems with holonomic
-constraints, in real128 (IEEE binary128), over the library's C interface.
+constraints, in real128 (IEEE binary128) or real64 (double), over the library's C
+interface.
 
     import holosym
     model = holosym.Model.builtin("fourbar")      # or Model.from_file(path), Model(text)
@@ -7,12 +8,18 @@ constraints, in real128 (IEEE binary128), over the library's C interface.
     run = holosym.simulate(model, M=8, h="1/160", T=20, every=160)
     run.t, run.q, run.p, run.energy_error, run.constraint_residual   # numpy float64
     q, p = run.exact(-1)                          # Decimals, every digit of real128
+    fast = holosym.simulate(model, M=8, h="1/160", T=20, every=160, precision="double")
+
+precision="quad" (the default of simulate, Integrator and ensemble) runs the real128
+library, precision="double" the real64 one (the same library built with -DHOLOSYM_REAL64,
+also in the package): faster, with the round-off of a double.
 
 Reals going in (h, T, parameters, states) may be str ("1/160", "0.1"), Decimal, Fraction,
-int or float; each is rounded once, to the nearest binary128, so "1/160" and
-Fraction(1, 160) lose no digit on the way (a float is taken at its exact binary value).
-Reals coming out are numpy float64 arrays (rounded to nearest) or, through the `exact`
-methods, Decimals with every digit of the binary128 value.
+int or float; each is rounded once, to the nearest binary128 (or double, for
+precision="double"), so "1/160" and Fraction(1, 160) lose no digit on the way (a float is
+taken at its exact binary value). Reals coming out are numpy float64 arrays (rounded to
+nearest) or, through the `exact` methods, Decimals with every digit of the binary128 (or
+double) value.
 
 Failures raise :class:`Error` with the library's status code (`.code`, the HOLOSYM_*
 constants below) and message (`.message`); the state of an :class:`Integrator` is then
@@ -26,6 +33,7 @@ import os
 import numpy as np
 
 from . import _binary128 as binary128
+from . import _binary64 as binary64
 from . import _clib
 
 try:
@@ -35,7 +43,11 @@ except Exception:  # pragma: no cover - not installed as a distribution
     __version__ = "unknown"
 
 __all__ = ["Error", "Model", "Integrator", "Run", "EnsembleResult", "simulate", "ensemble",
-           "binary128", "builtin_models"]
+           "binary128", "binary64", "builtin_models", "PRECISIONS"]
+
+#: The values of the `precision` argument: "quad" (real128, the default) and "double"
+#: (real64).
+PRECISIONS = ("quad", "double")
 
 # Status codes (include/holosym.h).
 SUCCESS = 0
@@ -74,42 +86,49 @@ class Error(Exception):
 
 
 def _check(code, handle):
-    """Raise Error for a nonzero status code of a call on `handle`."""
+    """Raise Error for a nonzero status code of a call on `handle` (a _Handle)."""
     if code != SUCCESS:
-        raise Error(code, _clib.message_of(handle))
+        raise Error(code, handle.lib.message_of(handle.pointer))
 
 
-def _real_bytes(value, what):
-    """The binary128 bytes of one real input, Error(INVALID_ARGUMENT) naming `what`."""
+def _real_bytes(value, what, lib=_clib.QUAD):
+    """The bytes of one real input rounded to the reals of `lib` (binary128 or double),
+    Error(INVALID_ARGUMENT) naming `what`."""
     try:
-        return binary128.from_value(value)
+        return lib.codec.from_value(value)
     except (TypeError, ValueError) as error:
         raise Error(INVALID_ARGUMENT, f"{what}: {error}") from None
 
 
-def _vector_bytes(values, n, what):
-    """The binary128 bytes of n real inputs (a sequence or numpy array)."""
+def _vector_bytes(values, n, what, lib=_clib.QUAD):
+    """The bytes of n real inputs (a sequence or numpy array) for `lib`."""
     values = list(np.asarray(values, dtype=object).ravel()) if isinstance(values, np.ndarray) \
         else list(values)
     if len(values) != n:
         raise Error(SIZE_MISMATCH, f"{what}: {n} values expected, got {len(values)}")
-    return b"".join(_real_bytes(v, f"{what}[{i}]") for i, v in enumerate(values))
+    return b"".join(_real_bytes(v, f"{what}[{i}]", lib) for i, v in enumerate(values))
 
 
-def _decimals(raw):
-    """Tuple of exact Decimals of a buffer of binary128 values."""
-    return tuple(binary128.to_decimal(piece) for piece in _clib.split(raw))
+def _decimals(raw, lib=_clib.QUAD):
+    """Tuple of exact Decimals of a buffer of reals of `lib`."""
+    return tuple(lib.codec.to_decimal(piece) for piece in lib.split(raw))
 
 
-def _floats(raw):
-    """float64 numpy array of a buffer of binary128 values."""
-    return np.array([binary128.to_float(piece) for piece in _clib.split(raw)], dtype=float)
+def _floats(raw, lib=_clib.QUAD):
+    """float64 numpy array of a buffer of reals of `lib`."""
+    return np.array([lib.codec.to_float(piece) for piece in lib.split(raw)], dtype=float)
 
 
-def _check_precision(precision):
-    if precision != "quad":
-        raise Error(INVALID_ARGUMENT, f"precision={precision!r}: this package holds the "
-                    f"real128 library only (precision='quad')")
+def _library(precision):
+    """The library of a precision: "quad" (real128) or "double" (real64); any other
+    value is Error(INVALID_ARGUMENT) naming the allowed ones."""
+    if not isinstance(precision, str) or precision not in PRECISIONS:
+        raise Error(INVALID_ARGUMENT, f"precision={precision!r}: the precision is 'quad' "
+                    f"(real128, the default) or 'double' (real64)")
+    try:
+        return _clib.library(precision)
+    except OSError as error:
+        raise Error(INVALID_ARGUMENT, f"precision={precision!r}: {error}") from None
 
 
 # ---------------------------------------------------------------------------- models
@@ -128,14 +147,16 @@ def builtin_models():
 
 
 class _Handle:
-    """An owned C handle (holosym_destroy when collected or closed)."""
+    """An owned C handle of the library `lib` (holosym_destroy when collected or
+    closed)."""
 
-    def __init__(self, pointer):
+    def __init__(self, pointer, lib):
         self.pointer = pointer
+        self.lib = lib
 
     def close(self):
         if self.pointer:
-            _clib.destroy(self.pointer)
+            self.lib.destroy(self.pointer)
             self.pointer = None
 
     def __del__(self):
@@ -145,17 +166,17 @@ class _Handle:
             pass
 
 
-def _create(text, M, N, G, label="model"):
-    """A handle for a model text and (M, N, G); Error with the library's message (for a
-    refused text "model:LINE:COLUMN: ...", `label` instead of "model")."""
+def _create(text, M, N, G, label="model", lib=_clib.QUAD):
+    """A handle of `lib` for a model text and (M, N, G); Error with the library's message
+    (for a refused text "model:LINE:COLUMN: ...", `label` instead of "model")."""
     for name, value in (("M", M), ("N", N), ("G", G)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
             raise Error(INVALID_ORDER, f"{name} must be an int, got {value!r}")
-    pointer = _clib.model_create(text.encode("utf-8"), int(M), int(N), int(G))
-    handle = _Handle(pointer)
-    code = _clib.status(pointer)
+    pointer = lib.model_create(text.encode("utf-8"), int(M), int(N), int(G))
+    handle = _Handle(pointer, lib)
+    code = lib.status(pointer)
     if code != SUCCESS:
-        message = _clib.message_of(pointer)
+        message = lib.message_of(pointer)
         if label != "model" and message.startswith("model:"):
             message = label + message[len("model"):]
         handle.close()
@@ -169,7 +190,8 @@ class Model:
 
     Model(text) refuses a bad text with Error(INVALID_MODEL, "model:LINE:COLUMN: ...").
     Parameters are set by name (:meth:`set`) and apply to every integrator made from the
-    model afterwards."""
+    model afterwards, each value rounded once to the integrator's precision. The model's
+    own values (get, parameters, initial_state) are those of the real128 library."""
 
     def __init__(self, text, name=None):
         """The model of `text` (str); `name` labels it (and its error messages)."""
@@ -179,11 +201,11 @@ class Model:
         self.text = text
         self.name = name or "model"
         self._handle = _create(text, 2, 1, 3, label=self.name)
-        self._settings = []  # (name, binary128 bytes) in the order set
+        self._settings = []  # (name, value as given) in the order set
         n, m = _clib.ctypes.c_int(), _clib.ctypes.c_int()
-        _check(_clib.sizes(self._handle.pointer, n, m), self._handle.pointer)
+        _check(_clib.QUAD.sizes(self._handle.pointer, n, m), self._handle)
         self.n, self.m = n.value, m.value
-        count = _clib.parameter_count(self._handle.pointer)
+        count = _clib.QUAD.parameter_count(self._handle.pointer)
         #: Parameter names, in the order of the file.
         self.parameter_names = tuple(self._name(_clib.NAME_PARAMETER, i + 1)
                                      for i in range(count))
@@ -196,11 +218,11 @@ class Model:
 
     def _name(self, what, index):
         handle = self._handle.pointer
-        length = _clib.model_name(handle, what, index, None, 0)
+        length = _clib.QUAD.model_name(handle, what, index, None, 0)
         if length < 0:
-            raise Error(length, _clib.message_of(handle))
+            raise Error(length, _clib.QUAD.message_of(handle))
         buffer = _clib.ctypes.create_string_buffer(length + 1)
-        _clib.model_name(handle, what, index, buffer, length + 1)
+        _clib.QUAD.model_name(handle, what, index, buffer, length + 1)
         return buffer.value.decode("utf-8")
 
     @classmethod
@@ -235,23 +257,23 @@ class Model:
 
     def set(self, **values):
         """Set parameters by name, e.g. model.set(g=2.0, L="1/3"): each value rounded
-        once to the nearest binary128. Error(INVALID_ARGUMENT) for an unknown name or a
-        value that is not finite (the model then keeps its earlier values). Returns the
-        model."""
+        once to the nearest binary128 (for an integrator of precision="double": to the
+        nearest double, from the value as given). Error(INVALID_ARGUMENT) for an unknown
+        name or a value that is not finite (the model then keeps its earlier values).
+        Returns the model."""
         for name, value in values.items():
             raw = _real_bytes(value, f"parameter {name}")
-            buffer = _clib.Reals(1, raw)
-            handle = self._handle.pointer
-            _check(_clib.set_parameter_p(handle, name.encode("utf-8"), buffer.address),
-                   handle)
-            self._settings.append((name, raw))
+            buffer = _clib.QUAD.reals(1, raw)
+            _check(_clib.QUAD.set_parameter_p(self._handle.pointer, name.encode("utf-8"),
+                                              buffer.address), self._handle)
+            self._settings.append((name, value))
         return self
 
     def get(self, name):
-        """The value of a parameter, exactly (Decimal)."""
-        buffer = _clib.Reals(1)
-        handle = self._handle.pointer
-        _check(_clib.get_parameter(handle, name.encode("utf-8"), buffer.address), handle)
+        """The value of a parameter (binary128), exactly (Decimal)."""
+        buffer = _clib.QUAD.reals(1)
+        _check(_clib.QUAD.get_parameter(self._handle.pointer, name.encode("utf-8"),
+                                        buffer.address), self._handle)
         return binary128.to_decimal(buffer.get_bytes())
 
     @property
@@ -261,17 +283,21 @@ class Model:
 
     def initial_state(self):
         """(q, p): the start the model states with its current parameters (velocities
-        turned into momenta, projected onto the manifold when off it), as Decimals."""
-        q, p = _clib.Reals(self.n), _clib.Reals(self.n)
-        handle = self._handle.pointer
-        _check(_clib.initial_state(handle, q.address, p.address), handle)
+        turned into momenta, projected onto the manifold when off it), as Decimals of the
+        real128 values."""
+        q, p = _clib.QUAD.reals(self.n), _clib.QUAD.reals(self.n)
+        _check(_clib.QUAD.initial_state(self._handle.pointer, q.address, p.address),
+               self._handle)
         return _decimals(q.get_bytes()), _decimals(p.get_bytes())
 
     def _apply_settings(self, handle):
-        for name, raw in self._settings:
-            buffer = _clib.Reals(1, raw)
-            _check(_clib.set_parameter_p(handle.pointer, name.encode("utf-8"),
-                                         buffer.address), handle.pointer)
+        """Set the parameters set so far on a handle (of either library), each value
+        rounded once to that library's reals."""
+        lib = handle.lib
+        for name, value in self._settings:
+            buffer = lib.reals(1, _real_bytes(value, f"parameter {name}", lib))
+            _check(lib.set_parameter_p(handle.pointer, name.encode("utf-8"),
+                                       buffer.address), handle)
 
     def __repr__(self):
         return f"<holosym.Model {self.name} n={self.n} m={self.m}>"
@@ -292,32 +318,39 @@ class Integrator:
     """Step-by-step integration of a model with the symplectic scheme (M, N, G) (order
     2 min(M, N + 1) when G is large enough; defaults N = M - 1, G = M + 1).
 
+    precision="quad" (default) integrates in real128, precision="double" in real64 (the
+    real64 library); the state, h and the parameters are then reals of that precision.
     The state starts at the model's initial state, or at (q, p) given (any real inputs,
-    rounded to binary128). `h` is the default step size of step() and integrate().
-    The integrator owns a C handle; close() (or a with block) frees it early."""
+    rounded once to the precision). `h` is the default step size of step() and
+    integrate(). The integrator owns a C handle; close() (or a with block) frees it
+    early."""
 
     def __init__(self, model, M=8, N=None, G=None, h=None, q=None, p=None,
                  precision="quad"):
-        _check_precision(precision)
+        lib = _library(precision)
         if not isinstance(model, Model):
             raise Error(INVALID_ARGUMENT, f"a holosym.Model is expected, got "
                         f"{type(model).__name__}")
         M, N, G = _orders(M, N, G)
         self.model = model
         self.orders = (M, N, G)
+        #: "quad" or "double".
+        self.precision = precision
+        self._lib = lib
+        self._codec = lib.codec
         self.n, self.m = model.n, model.m
-        self._handle = _create(model.text, M, N, G, label=model.name)
+        self._handle = _create(model.text, M, N, G, label=model.name, lib=lib)
         model._apply_settings(self._handle)
-        self._q, self._p = _clib.Reals(self.n), _clib.Reals(self.n)
+        self._q, self._p = lib.reals(self.n), lib.reals(self.n)
         self._h = None if h is None else self._step_bytes(h)
         #: The time of the state: the sum of the steps taken (exact, a Fraction).
         self.t = Fraction(0)
         self._pending = None
         if q is None and p is None:
-            _check(_clib.initial_state(self._handle.pointer, self._q.address,
-                                       self._p.address), self._handle.pointer)
+            _check(lib.initial_state(self._handle.pointer, self._q.address,
+                                     self._p.address), self._handle)
             #: The note of the model's start (e.g. that it was projected), or "".
-            self.note = _clib.message_of(self._handle.pointer)
+            self.note = lib.message_of(self._handle.pointer)
         else:
             if q is None or p is None:
                 raise Error(INVALID_ARGUMENT, "give both q and p, or neither")
@@ -326,9 +359,10 @@ class Integrator:
 
     # -- state
     def set_state(self, q, p, t=0):
-        """Set the state (each value rounded once to binary128) and the time t."""
-        q_raw = _vector_bytes(q, self.n, "q")
-        p_raw = _vector_bytes(p, self.n, "p")
+        """Set the state (each value rounded once to the integrator's precision) and the
+        time t."""
+        q_raw = _vector_bytes(q, self.n, "q", self._lib)
+        p_raw = _vector_bytes(p, self.n, "p", self._lib)
         negative, t_value = binary128.parse_value(t)
         if not isinstance(t_value, Fraction):
             raise Error(INVALID_ARGUMENT, f"t must be finite, got {t!r}")
@@ -338,26 +372,29 @@ class Integrator:
 
     @property
     def state(self):
-        """(q, p) as tuples of Decimals, every digit of the binary128 values."""
-        return _decimals(self._q.get_bytes()), _decimals(self._p.get_bytes())
+        """(q, p) as tuples of Decimals, every digit of the binary128 (or double)
+        values."""
+        lib = self._lib
+        return _decimals(self._q.get_bytes(), lib), _decimals(self._p.get_bytes(), lib)
 
     @property
     def state_float(self):
         """(q, p) as numpy float64 arrays (rounded to nearest)."""
-        return _floats(self._q.get_bytes()), _floats(self._p.get_bytes())
+        lib = self._lib
+        return _floats(self._q.get_bytes(), lib), _floats(self._p.get_bytes(), lib)
 
     @property
     def q(self):
         """q as a numpy float64 array."""
-        return _floats(self._q.get_bytes())
+        return _floats(self._q.get_bytes(), self._lib)
 
     @property
     def p(self):
         """p as a numpy float64 array."""
-        return _floats(self._p.get_bytes())
+        return _floats(self._p.get_bytes(), self._lib)
 
     def _step_bytes(self, h):
-        return _real_bytes(h, "h")
+        return _real_bytes(h, "h", self._lib)
 
     def _h_buffer(self, h):
         if h is None:
@@ -367,17 +404,16 @@ class Integrator:
             raw = self._h
         else:
             raw = self._step_bytes(h)
-        return _clib.Reals(1, raw), raw
+        return self._lib.reals(1, raw), raw
 
     # -- the calls
     def step(self, h=None):
         """One step of size h (default: the integrator's h) in place. Error on failure,
         the state unchanged (h <= 0: INVALID_STEP_SIZE)."""
         buffer, raw = self._h_buffer(h)
-        handle = self._handle.pointer
-        _check(_clib.step_p(handle, self._q.address, self._p.address, buffer.address),
-               handle)
-        self.t += binary128.to_fraction(raw)
+        _check(self._lib.step_p(self._handle.pointer, self._q.address, self._p.address,
+                                buffer.address), self._handle)
+        self.t += self._codec.to_fraction(raw)
 
     def integrate(self, steps, h=None, observer=None, exact=False):
         """`steps` steps of size h in place; returns the number of steps done.
@@ -391,13 +427,13 @@ class Integrator:
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
             raise Error(INVALID_STEP_COUNT, f"steps must be an int, got {steps!r}")
         buffer, raw = self._h_buffer(h)
-        h_value = binary128.to_fraction(raw) if binary128.to_decimal(raw).is_finite() \
-            else None
+        lib, codec = self._lib, self._codec
+        h_value = codec.to_fraction(raw) if codec.to_decimal(raw).is_finite() else None
         t0 = self.t
         handle = self._handle.pointer
         n = self.n
         stopped = [False]
-        size = binary128.BYTES * n
+        size = lib.bytes * n
 
         def bridge(_handle, step, _t, q_ptr, p_ptr, _data):
             try:
@@ -405,10 +441,11 @@ class Integrator:
                 p_raw = _clib.ctypes.string_at(p_ptr, size)
                 t = t0 + step * h_value
                 if exact:
-                    result = observer(step, _fraction_to_decimal(t), _decimals(q_raw),
-                                      _decimals(p_raw))
+                    result = observer(step, _fraction_to_decimal(t), _decimals(q_raw, lib),
+                                      _decimals(p_raw, lib))
                 else:
-                    result = observer(step, float(t), _floats(q_raw), _floats(p_raw))
+                    result = observer(step, float(t), _floats(q_raw, lib),
+                                      _floats(p_raw, lib))
                 if result:
                     stopped[0] = True
                     return 1
@@ -420,10 +457,10 @@ class Integrator:
         callback = _clib.OBSERVER(bridge) if observer is not None else None
         done = _clib.ctypes.c_int(0)
         self._pending = None
-        code = _clib.integrate_p(handle, self._q.address, self._p.address, buffer.address,
-                                 int(steps),
-                                 _clib.ctypes.cast(callback, _clib.ctypes.c_void_p)
-                                 if callback else None, None, done)
+        code = lib.integrate_p(handle, self._q.address, self._p.address, buffer.address,
+                               int(steps),
+                               _clib.ctypes.cast(callback, _clib.ctypes.c_void_p)
+                               if callback else None, None, done)
         if done.value > 0:
             self.t = t0 + done.value * h_value
         if self._pending is not None:
@@ -431,46 +468,47 @@ class Integrator:
             raise pending
         if code == USER_ABORT and stopped[0]:
             return done.value
-        _check(code, handle)
+        _check(code, self._handle)
         return done.value
 
     def dense_output(self, tau, exact=False):
         """(q~, p~, lambda~) of the last step at tau in [0, 1] (numpy float64 arrays, or
         with exact=True tuples of Decimals). Error(NOT_INITIALIZED) before any step."""
-        tau_buffer = _clib.Reals(1, _real_bytes(tau, "tau"))
-        q, p, lam = _clib.Reals(self.n), _clib.Reals(self.n), _clib.Reals(self.m)
-        handle = self._handle.pointer
-        _check(_clib.dense_output_p(handle, tau_buffer.address, q.address, p.address,
-                                    lam.address), handle)
+        lib = self._lib
+        tau_buffer = lib.reals(1, _real_bytes(tau, "tau", lib))
+        q, p, lam = lib.reals(self.n), lib.reals(self.n), lib.reals(self.m)
+        _check(lib.dense_output_p(self._handle.pointer, tau_buffer.address, q.address,
+                                  p.address, lam.address), self._handle)
         convert = _decimals if exact else _floats
-        return convert(q.get_bytes()), convert(p.get_bytes()), convert(lam.get_bytes())
+        return (convert(q.get_bytes(), lib), convert(p.get_bytes(), lib),
+                convert(lam.get_bytes()[:lib.bytes * self.m], lib))
 
     def project(self):
         """Project the state onto the constraint manifold {phi = 0, Phi H_p = 0}."""
-        handle = self._handle.pointer
-        _check(_clib.project(handle, self._q.address, self._p.address), handle)
+        _check(self._lib.project(self._handle.pointer, self._q.address, self._p.address),
+               self._handle)
 
     def energy(self, exact=False):
         """H at the state (float, or Decimal with exact=True)."""
         raw = self._energy_bytes(self._q, self._p)
-        return binary128.to_decimal(raw) if exact else binary128.to_float(raw)
+        return self._codec.to_decimal(raw) if exact else self._codec.to_float(raw)
 
     def constraint(self, exact=False):
         """phi at the state (m values: float64 array, or Decimals with exact=True)."""
         raw = self._constraint_bytes(self._q)
-        return _decimals(raw) if exact else _floats(raw)
+        return _decimals(raw, self._lib) if exact else _floats(raw, self._lib)
 
     def _energy_bytes(self, q, p):
-        out = _clib.Reals(1)
-        handle = self._handle.pointer
-        _check(_clib.energy(handle, q.address, p.address, out.address), handle)
+        out = self._lib.reals(1)
+        _check(self._lib.energy(self._handle.pointer, q.address, p.address, out.address),
+               self._handle)
         return out.get_bytes()
 
     def _constraint_bytes(self, q):
-        out = _clib.Reals(self.m)
-        handle = self._handle.pointer
-        _check(_clib.constraint(handle, q.address, out.address), handle)
-        return out.get_bytes()[:binary128.BYTES * self.m]
+        out = self._lib.reals(self.m)
+        _check(self._lib.constraint(self._handle.pointer, q.address, out.address),
+               self._handle)
+        return out.get_bytes()[:self._lib.bytes * self.m]
 
     def close(self):
         """Free the C handle (the integrator is unusable afterwards)."""
@@ -483,7 +521,8 @@ class Integrator:
         self.close()
 
     def __repr__(self):
-        return f"<holosym.Integrator {self.model.name} (M, N, G) = {self.orders}>"
+        return (f"<holosym.Integrator {self.model.name} (M, N, G) = {self.orders} "
+                f"{self.precision}>")
 
 
 def _fraction_to_decimal(x):
@@ -506,21 +545,23 @@ def _decimal_exact(numerator, k):
 
 # ---------------------------------------------------------------------------- runs
 
-def _step_count(h_raw, T, steps):
-    """The number of steps: `steps`, or nint(T/h) as `holosym simulate` takes it."""
+def _step_count(h_raw, T, steps, lib=_clib.QUAD):
+    """The number of steps: `steps`, or nint(T/h) as `holosym simulate` takes it (h and
+    T reals of `lib`)."""
     if steps is not None:
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
             raise Error(INVALID_STEP_COUNT, f"steps must be an int >= 0, got {steps!r}")
         return int(steps)
     if T is None:
         raise Error(INVALID_ARGUMENT, "give T (the final time) or steps")
-    h_dec = binary128.to_decimal(h_raw)
+    codec = lib.codec
+    h_dec = codec.to_decimal(h_raw)
     if not h_dec.is_finite() or h_dec <= 0:
         raise Error(INVALID_STEP_SIZE, f"h must be > 0 and finite, got {h_dec}")
-    t_value = binary128.to_decimal(_real_bytes(T, "T"))
+    t_value = codec.to_decimal(_real_bytes(T, "T", lib))
     if not t_value.is_finite() or t_value < 0:
         raise Error(INVALID_ARGUMENT, f"T must be >= 0 and finite, got {T!r}")
-    ratio = Fraction(t_value) / binary128.to_fraction(h_raw)
+    ratio = Fraction(t_value) / codec.to_fraction(h_raw)
     count = int(ratio + Fraction(1, 2))  # nint (ratio >= 0): half away from zero
     if count > 2147483647:
         raise Error(INVALID_STEP_COUNT, f"T/h gives {count} steps, more than 2147483647")
@@ -532,30 +573,38 @@ class Run:
 
     Arrays (numpy float64): t (rows), q and p (rows x n), energy (H, rows),
     energy_error ((H - H0)/H0 as `holosym simulate` writes it; H - H0 when H0 = 0),
-    constraint_residual (max|phi| at the row's state; 0 when m = 0). exact(row) gives
-    the row's (q, p) as Decimals with every digit."""
+    constraint_residual (max|phi| at the row's state; 0 when m = 0); float64 for either
+    precision. exact(row) gives the row's (q, p) as Decimals with every digit of the
+    binary128 values (precision "quad") or of the doubles (precision "double")."""
 
-    def __init__(self, model, orders, h_raw, rows, energies, residuals, steps):
+    def __init__(self, model, orders, h_raw, rows, energies, residuals, steps,
+                 lib=_clib.QUAD):
         self.model = model
         self.orders = orders
         self.steps = steps
+        #: "quad" or "double": the precision of the run.
+        self.precision = lib.precision
+        self._lib = lib
+        codec = lib.codec
         self._h = h_raw
         self._rows = rows  # [(t bytes, q bytes, p bytes)]
         self._energies = energies
-        self.t = np.array([binary128.to_float(r[0]) for r in rows], dtype=float)
-        self.q = np.array([_floats(r[1]) for r in rows], dtype=float).reshape(len(rows), -1)
-        self.p = np.array([_floats(r[2]) for r in rows], dtype=float).reshape(len(rows), -1)
-        self.energy = np.array([binary128.to_float(e) for e in energies], dtype=float)
-        h0 = binary128.to_fraction(energies[0])
+        self.t = np.array([codec.to_float(r[0]) for r in rows], dtype=float)
+        self.q = np.array([_floats(r[1], lib) for r in rows],
+                          dtype=float).reshape(len(rows), -1)
+        self.p = np.array([_floats(r[2], lib) for r in rows],
+                          dtype=float).reshape(len(rows), -1)
+        self.energy = np.array([codec.to_float(e) for e in energies], dtype=float)
+        h0 = codec.to_fraction(energies[0])
         scale = h0 if h0 != 0 else Fraction(1)
         self.energy_error = np.array(
-            [float((binary128.to_fraction(e) - h0) / scale) for e in energies], dtype=float)
+            [float((codec.to_fraction(e) - h0) / scale) for e in energies], dtype=float)
         self.constraint_residual = np.array(residuals, dtype=float)
 
     @property
     def h(self):
-        """The step size as used (binary128), exactly."""
-        return binary128.to_decimal(self._h)
+        """The step size as used (binary128 or double), exactly."""
+        return self._lib.codec.to_decimal(self._h)
 
     def __len__(self):
         return len(self._rows)
@@ -563,21 +612,26 @@ class Run:
     def exact(self, row):
         """(q, p) of a row (negative: from the end) as tuples of Decimals, exact."""
         _, q, p = self._rows[row]
-        return _decimals(q), _decimals(p)
+        return _decimals(q, self._lib), _decimals(p, self._lib)
 
     def exact_t(self, row):
-        """t of a row as a Decimal, exact (the library's k h in real128)."""
-        return binary128.to_decimal(self._rows[row][0])
+        """t of a row as a Decimal, exact (the library's k h in its precision)."""
+        return self._lib.codec.to_decimal(self._rows[row][0])
 
     def exact_energy(self, row):
         """H of a row as a Decimal, exact."""
-        return binary128.to_decimal(self._energies[row])
+        return self._lib.codec.to_decimal(self._energies[row])
+
+    def __repr__(self):
+        return (f"<holosym.Run {self.model.name} (M, N, G) = {self.orders} "
+                f"{self.precision}, {len(self)} rows>")
 
 
 def _residual(integrator, q_buffer):
     """max|phi(q)| as a float (0 when m = 0), from the exact values."""
     raw = integrator._constraint_bytes(q_buffer)
-    values = [abs(binary128.to_fraction(piece)) for piece in _clib.split(raw)]
+    lib = integrator._lib
+    values = [abs(lib.codec.to_fraction(piece)) for piece in lib.split(raw)]
     return float(max(values)) if values else 0.0
 
 
@@ -586,26 +640,29 @@ def simulate(model, M=8, N=None, G=None, h=None, T=None, steps=None, every=1, q=
     """Integrate `model` from its initial state (or (q, p)) like `holosym simulate`:
     (M, N, G) with N = M - 1 and G = max(M, N) + 1 by default, step size h (str, Decimal,
     Fraction, int or float), nint(T/h) steps (or `steps`), a row at t = 0, every `every`
-    steps and after the last. Returns a :class:`Run`; Error on a failure."""
-    _check_precision(precision)
+    steps and after the last. precision="quad" (default) runs the real128 library,
+    "double" the real64 one (every input rounded once to a double; like `holosym
+    simulate` of the real64 build). Returns a :class:`Run`; Error on a failure."""
+    lib = _library(precision)
+    codec = lib.codec
     if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
         raise Error(INVALID_ARGUMENT, f"every must be an int >= 1, got {every!r}")
     if h is None:
         raise Error(INVALID_STEP_SIZE, "give the step size h")
-    h_raw = _real_bytes(h, "h")
-    count = _step_count(h_raw, T, steps)
-    integrator = Integrator(model, M, N, G, h=h, q=q, p=p)
+    h_raw = _real_bytes(h, "h", lib)
+    count = _step_count(h_raw, T, steps, lib)
+    integrator = Integrator(model, M, N, G, h=h, q=q, p=p, precision=precision)
     try:
-        rows = [(binary128.from_value(0), integrator._q.get_bytes(),
+        rows = [(codec.from_value(0), integrator._q.get_bytes(),
                  integrator._p.get_bytes())]
-        size = binary128.BYTES * integrator.n
+        size = lib.bytes * integrator.n
         handle = integrator._handle.pointer
         pending = []
 
         def record(_handle, step, t_ptr, q_ptr, p_ptr, _data):
             try:
                 if step % every == 0 or step == count:
-                    rows.append((_clib.ctypes.string_at(t_ptr, binary128.BYTES),
+                    rows.append((_clib.ctypes.string_at(t_ptr, lib.bytes),
                                  _clib.ctypes.string_at(q_ptr, size),
                                  _clib.ctypes.string_at(p_ptr, size)))
                 return 0
@@ -614,23 +671,24 @@ def simulate(model, M=8, N=None, G=None, h=None, T=None, steps=None, every=1, q=
                 return 1
 
         callback = _clib.OBSERVER(record)
-        h_buffer = _clib.Reals(1, h_raw)
+        h_buffer = lib.reals(1, h_raw)
         done = _clib.ctypes.c_int(0)
-        code = _clib.integrate_p(handle, integrator._q.address, integrator._p.address,
-                                 h_buffer.address, count,
-                                 _clib.ctypes.cast(callback, _clib.ctypes.c_void_p), None,
-                                 done)
+        code = lib.integrate_p(handle, integrator._q.address, integrator._p.address,
+                               h_buffer.address, count,
+                               _clib.ctypes.cast(callback, _clib.ctypes.c_void_p), None,
+                               done)
         if pending:
             raise pending[0]
-        _check(code, handle)
+        _check(code, integrator._handle)
         energies, residuals = [], []
-        q_buffer, p_buffer = _clib.Reals(integrator.n), _clib.Reals(integrator.n)
+        q_buffer, p_buffer = lib.reals(integrator.n), lib.reals(integrator.n)
         for _, q_raw, p_raw in rows:
             q_buffer.set_bytes(q_raw)
             p_buffer.set_bytes(p_raw)
             energies.append(integrator._energy_bytes(q_buffer, p_buffer))
             residuals.append(_residual(integrator, q_buffer))
-        return Run(model, integrator.orders, h_raw, rows, energies, residuals, done.value)
+        return Run(model, integrator.orders, h_raw, rows, energies, residuals, done.value,
+                   lib)
     finally:
         integrator.close()
 
@@ -639,10 +697,14 @@ class EnsembleResult:
     """The final states of :func:`ensemble`, one row per member: q and p (members x n),
     energy_error ((H - H0)/H0 at the end) and constraint_residual (max|phi| at the end)
     as numpy float64 arrays, status (int array, 0 for success) and messages (str list);
-    a failed member's row is NaN. exact(i) gives member i's final (q, p) as Decimals."""
+    a failed member's row is NaN. exact(i) gives member i's final (q, p) as Decimals
+    (of the binary128 values, or of the doubles for precision="double")."""
 
-    def __init__(self, n):
+    def __init__(self, n, lib=_clib.QUAD):
         self.n = n
+        #: "quad" or "double": the precision of the members' runs.
+        self.precision = lib.precision
+        self._lib = lib
         self._finals = []
         self.status = []
         self.messages = []
@@ -651,9 +713,10 @@ class EnsembleResult:
 
     def _finish(self):
         nan_row = [float("nan")] * self.n
-        self.q = np.array([_floats(f[0]) if f else nan_row for f in self._finals],
+        lib = self._lib
+        self.q = np.array([_floats(f[0], lib) if f else nan_row for f in self._finals],
                           dtype=float).reshape(len(self._finals), self.n)
-        self.p = np.array([_floats(f[1]) if f else nan_row for f in self._finals],
+        self.p = np.array([_floats(f[1], lib) if f else nan_row for f in self._finals],
                           dtype=float).reshape(len(self._finals), self.n)
         self.energy_error = np.array(self.energy_error, dtype=float)
         self.constraint_residual = np.array(self.constraint_residual, dtype=float)
@@ -667,7 +730,7 @@ class EnsembleResult:
         final = self._finals[member]
         if final is None:
             raise Error(int(self.status[member]), self.messages[member])
-        return _decimals(final[0]), _decimals(final[1])
+        return _decimals(final[0], self._lib), _decimals(final[1], self._lib)
 
 
 def ensemble(model, states, M=8, N=None, G=None, h=None, T=None, steps=None,
@@ -679,26 +742,28 @@ def ensemble(model, states, M=8, N=None, G=None, h=None, T=None, steps=None,
     The members run one after another on one integrator in this process (a loop over
     the C interface; the library's own ensembles, `holosym ensemble`, run in parallel).
     errors="raise": the first failing member raises Error (its index in the message);
-    errors="record": failures are recorded in status/messages and the loop goes on."""
-    _check_precision(precision)
+    errors="record": failures are recorded in status/messages and the loop goes on.
+    precision="quad" (default) or "double" as for :func:`simulate`."""
+    lib = _library(precision)
+    codec = lib.codec
     if errors not in ("raise", "record"):
         raise Error(INVALID_ARGUMENT, f"errors must be 'raise' or 'record', got {errors!r}")
     if h is None:
         raise Error(INVALID_STEP_SIZE, "give the step size h")
-    h_raw = _real_bytes(h, "h")
-    count = _step_count(h_raw, T, steps)
+    h_raw = _real_bytes(h, "h", lib)
+    count = _step_count(h_raw, T, steps, lib)
     members = list(states)
-    result = EnsembleResult(model.n)
-    with Integrator(model, M, N, G, h=h) as integrator:
+    result = EnsembleResult(model.n, lib)
+    with Integrator(model, M, N, G, h=h, precision=precision) as integrator:
         for index, state in enumerate(members):
             try:
                 q, p = state
                 integrator.set_state(q, p)
-                h0 = binary128.to_fraction(integrator._energy_bytes(integrator._q,
-                                                                    integrator._p))
+                h0 = codec.to_fraction(integrator._energy_bytes(integrator._q,
+                                                                integrator._p))
                 integrator.integrate(count)
-                energy = binary128.to_fraction(integrator._energy_bytes(integrator._q,
-                                                                        integrator._p))
+                energy = codec.to_fraction(integrator._energy_bytes(integrator._q,
+                                                                    integrator._p))
             except (Error, TypeError, ValueError) as error:
                 if not isinstance(error, Error):
                     error = Error(INVALID_ARGUMENT, f"states[{index}]: {error}")
