@@ -472,9 +472,10 @@ contains
     subroutine holosym_destroy(ptr) bind(C, name="holosym_destroy")
         type(c_ptr), value :: ptr !! the handle
         type(c_handle), pointer :: handle
-        handle => handle_of(ptr)
-        if (.not. associated(handle)) return
+        ! Forgetting is the lookup: one step under the registry's lock, so two destroys of
+        ! one handle on two threads free it once.
         if (.not. forget_handle(ptr)) return
+        call c_f_pointer(ptr, handle)
         if (associated(handle%record)) deallocate (handle%record)
         deallocate (handle)
     end subroutine holosym_destroy
