@@ -8,6 +8,9 @@
 !! Equations (rows, in order): R_p,j (j = 0..N); D_i (i = 1..M-1); p_a + D_0;
 !! phi(q_i) (i = 1..M); Phi(q_M) H_p(q_M, D_M), where
 !!   D_i = sum_g w_g [A_gi P_g - h B_gi H_q(Q_g, P_g)] - wl_i Phi(q_i)^T mu_i.
+!! Where each block of unknowns sits in x and each block of equations in the residual is
+!! the layout's (`holosym_scheme_layout`, built by `init`); this module and its kernels
+!! take every offset from it.
 !!
 !! Speed: the quadrature sums that do not involve the user's functions are precomputed
 !! (e.g. sum_g w_g C_gj V_g = sum_k SCA(j,k) z_k), all workspace is allocated by `init`
@@ -24,6 +27,7 @@ module holosym_scheme
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
         difference_constraint_hessian
     use holosym_newton, only: nonlinear_system, all_finite, all_finite_matrix
+    use holosym_scheme_layout, only: scheme_layout_t, unknown_count, max_block_order
     ! The kernels of both kinds, under generic names (the type of the first argument
     ! selects the instance): working precision and real64.
     use holosym_scheme_kernels_wp, only: scheme_tables_wp, step_constants_wp, &
@@ -45,9 +49,9 @@ module holosym_scheme
     !! degrades (relative error 1e-3 at M = 35, 1e4 at M = 45) and the order 2M is far
     !! beyond what real128 round-off lets any step size show (orders above about 30 are
     !! never observed: docs/status-codes.md).
-    integer, parameter, public :: max_order_m = 30
+    integer, parameter, public :: max_order_m = max_block_order
     !> Largest N accepted: the momentum polynomial has the same basis and the same limit.
-    integer, parameter, public :: max_order_n = 30
+    integer, parameter, public :: max_order_n = max_block_order
     !> Largest G accepted. Gauss-Legendre rules computed in working precision stay exact to
     !! 5e-34 up to 128 points; G = max(M, N) + 1 <= 31 is what the scheme needs, and 64
     !! leaves room for over-integration (extra points beyond M + 3 change no order).
@@ -103,6 +107,8 @@ module holosym_scheme
         integer :: n = 0             !! coordinates
         integer :: m = 0             !! constraints
         integer :: nx = 0            !! unknowns = equations
+        !> Where each block of unknowns and equations lives (set by `init`).
+        type(scheme_layout_t), private :: layout
         !> How the Jacobian is formed: JACOBIAN_ASSEMBLED or JACOBIAN_RESIDUAL_DIFFERENCES.
         integer :: jacobian_mode = JACOBIAN_ASSEMBLED
         !> Where second derivatives come from: HESSIANS_USER or HESSIANS_DIFFERENCES.
@@ -198,20 +204,6 @@ module holosym_scheme
 
 contains
 
-    !> Number of unknowns (= equations) of one step: (M+N+1) n + (M+1) m; -1 when that
-    !! does not fit the default integer (or an argument is negative).
-    pure integer function unknown_count(order_m, order_n, n, m)
-        integer, intent(in) :: order_m !! M
-        integer, intent(in) :: order_n !! N
-        integer, intent(in) :: n       !! coordinates
-        integer, intent(in) :: m       !! constraints
-        integer(int64) :: count
-        unknown_count = -1
-        if (min(order_m, order_n, n, m) < 0) return
-        count = (int(order_m, int64) + order_n + 1) * n + (int(order_m, int64) + 1) * m
-        if (count <= huge(unknown_count)) unknown_count = int(count)
-    end function unknown_count
-
     !> Check (M, N, G) and the sizes (n, m) and record them, without allocating anything.
     !! Codes: HOLOSYM_INVALID_ORDER (M, N or G outside 1..max_order_m, 0..max_order_n,
     !! 1..max_gauss_points, or G < N + 1, which is singular for every system),
@@ -306,6 +298,7 @@ contains
             return
         end if
         self%counters = scheme_counters_t()
+        call self%layout%build(order_m, order_n, gauss_points, n, m)
 
         allocate (self%disp_nodes(0:order_m), self%lobatto_weights(0:order_m))
         call gauss_lobatto(self%disp_nodes, self%lobatto_weights)
@@ -400,38 +393,6 @@ contains
         if (self%m > 0) call sys%constraint_jacobian(qa, self%phi_jac(:, :, 0))
     end subroutine scheme_set_step
 
-    !> Offset (0-based) of unknown block z_k, k = 1..M.
-    pure integer function z_at(self, k)
-        class(discrete_scheme), intent(in) :: self
-        integer, intent(in) :: k
-        z_at = (k - 1) * self%n
-    end function z_at
-
-    !> Offset of unknown block w_j, j = 0..N.
-    pure integer function w_at(self, j)
-        class(discrete_scheme), intent(in) :: self
-        integer, intent(in) :: j
-        w_at = (self%order_m + j) * self%n
-    end function w_at
-
-    !> Offset of unknown block mu_k, k = 0..M.
-    pure integer function mu_at(self, k)
-        class(discrete_scheme), intent(in) :: self
-        integer, intent(in) :: k
-        mu_at = (self%order_m + self%order_n + 1) * self%n + k * self%m
-    end function mu_at
-
-    !> Offset of the row block D_i: i = 0 is p_a + D_0, i = 1..M-1 the interior equations.
-    pure integer function d_row_at(self, i)
-        class(discrete_scheme), intent(in) :: self
-        integer, intent(in) :: i
-        if (i == 0) then
-            d_row_at = (self%order_n + self%order_m) * self%n
-        else
-            d_row_at = (self%order_n + i) * self%n
-        end if
-    end function d_row_at
-
     !> Evaluate the polynomials and the user's first derivatives at x (cached). With
     !! `lowered_ok` an evaluation cached by `residual_lowered` at the same x is accepted.
     subroutine evaluate(self, x, status, lowered_ok)
@@ -452,15 +413,15 @@ contains
         end if
         self%cache_valid = .false.
         do g = 1, self%gauss_points
-            call gauss_state(self%tab, self%step, g, self%order_m, self%order_n, self%n, x, &
-                                self%q_gauss(:, g), self%p_gauss(:, g))
+            call gauss_state(self%tab, self%step, self%layout, g, x, self%q_gauss(:, g), &
+                             self%p_gauss(:, g))
             call gauss_gradients(self, g, status)
             if (.not. status%ok()) return
         end do
         call node_jacobians(self, x, status)
         if (.not. status%ok()) return
-        call d_sums(self%tab, self%step, self%order_m, self%order_n, self%n, self%m, x, &
-                       self%hq_gauss, self%phi_jac, self%d_values)
+        call d_sums(self%tab, self%step, self%layout, x, self%hq_gauss, self%phi_jac, &
+                    self%d_values)
         self%cached_x = x
         self%cache_valid = .true.
         self%cache_lowered = .false.
@@ -494,7 +455,7 @@ contains
         integer :: i, base
         status%code = HOLOSYM_SUCCESS
         do i = 1, self%order_m
-            base = z_at(self, i)
+            base = self%layout%z_at(i)
             self%q_nodes(:, i) = self%step%qa + x(base + 1:base + self%n)
         end do
         do i = 0, self%order_m
@@ -527,8 +488,7 @@ contains
         associate (low => self%low)
             low%x = real(x, dp)
             do g = 1, self%gauss_points
-                call gauss_state(low%tab, low%step, g, self%order_m, self%order_n, self%n, &
-                                    low%x, low%q, low%p)
+                call gauss_state(low%tab, low%step, self%layout, g, low%x, low%q, low%p)
                 self%q_gauss(:, g) = real(low%q, wp)
                 self%p_gauss(:, g) = real(low%p, wp)
                 call gauss_gradients(self, g, status)
@@ -539,8 +499,7 @@ contains
             call node_jacobians(self, x, status)
             if (.not. status%ok()) return
             low%phi_jac = real(self%phi_jac, dp)
-            call d_sums(low%tab, low%step, self%order_m, self%order_n, self%n, self%m, &
-                           low%x, low%hq, low%phi_jac, low%d)
+            call d_sums(low%tab, low%step, self%layout, low%x, low%hq, low%phi_jac, low%d)
             self%d_values = real(low%d, wp)
         end associate
         self%cached_x = x
@@ -558,8 +517,8 @@ contains
         self%counters%residuals = self%counters%residuals + 1
         call evaluate(self, x, status)
         if (.not. status%ok()) return
-        call momentum_rows(self%tab, self%step, self%order_m, self%order_n, self%n, x, &
-                              self%hp_gauss, self%d_values, f)
+        call momentum_rows(self%tab, self%step, self%layout, x, self%hp_gauss, &
+                           self%d_values, f)
         call constraint_rows(self, f, status)
     end subroutine scheme_residual
 
@@ -571,16 +530,15 @@ contains
         real(wp), intent(in) :: x(:)   !! unknowns
         real(wp), intent(out) :: f(:)  !! residual (real64 accuracy)
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: last_row
 
         self%counters%lowered_residuals = self%counters%lowered_residuals + 1
         call evaluate_lowered(self, x, status)
         if (.not. status%ok()) return
         associate (low => self%low)
-            call momentum_rows(low%tab, low%step, self%order_m, self%order_n, self%n, &
-                                  low%x, low%hp, low%d, low%f)
-            last_row = (self%order_m + self%order_n + 1) * self%n
-            f(1:last_row) = real(low%f(1:last_row), wp)
+            call momentum_rows(low%tab, low%step, self%layout, low%x, low%hp, low%d, low%f)
+            associate (rows => self%layout%momentum_rows)
+                f(1:rows) = real(low%f(1:rows), wp)
+            end associate
         end associate
         call constraint_rows(self, f, status)
     end subroutine scheme_residual_lowered
@@ -594,16 +552,16 @@ contains
         integer :: i, l, row, m
         status%code = HOLOSYM_SUCCESS
         m = self%m
-        row = (self%order_m + self%order_n + 1) * self%n
         do i = 1, self%order_m
+            row = self%layout%phi_row_at(i)
             if (m > 0) call self%sys%constraint(self%q_nodes(:, i), f(row + 1:row + m))
-            row = row + m
         end do
         call self%sys%dh_dp(self%q_nodes(:, self%order_m), self%d_values(:, self%order_m), &
                             self%velocity)
         self%counters%gradients = self%counters%gradients + 1
-        row = (self%order_m + self%order_n + 1) * self%n
-        if (.not. (all_finite(f(row + 1:row + self%order_m * m)) .and. &
+        ! The blocks phi(q_1)..phi(q_M) follow each other and end where the last begins.
+        row = self%layout%v_row_at
+        if (.not. (all_finite(f(self%layout%phi_row_at(1) + 1:row)) .and. &
                    all_finite(self%velocity))) then
             ! dh_dp at a non-finite momentum D_M is the step's overflow, not the system's.
             if (.not. all_finite(self%d_values(:, self%order_m))) then
@@ -614,7 +572,6 @@ contains
             end if
             return
         end if
-        row = row + self%order_m * m
         do l = 1, m
             f(row + l) = sum(self%phi_jac(l, :, self%order_m) * self%velocity)
         end do
@@ -736,9 +693,8 @@ contains
         type(holosym_status_t), intent(out) :: status
         call jacobian_inputs(self, x, status)
         if (.not. status%ok()) return
-        call assemble_blocks(self%tab, self%hess, self%patterns, self%order_m, &
-                                self%order_n, self%n, self%m, self%step%h, &
-                                x(mu_at(self, 0) + 1:), self%phi_jac, jac)
+        call assemble_blocks(self%tab, self%hess, self%patterns, self%layout, self%step%h, x, &
+                             self%phi_jac, jac)
     end subroutine assemble_jacobian
 
     !> The Jacobian assembled in real64 arithmetic (from the same second derivatives).
@@ -760,11 +716,13 @@ contains
                 low%hess%end_hqp = real(self%hess%end_hqp, dp)
                 low%hess%end_hpp = real(self%hess%end_hpp, dp)
             end if
-            ! The scaled multipliers in real64, in the lowered residual's scratch vector.
-            low%f(1:self%nx - mu_at(self, 0)) = real(x(mu_at(self, 0) + 1:), dp)
-            call assemble_blocks(low%tab, low%hess, self%patterns, self%order_m, &
-                                    self%order_n, self%n, self%m, low%step%h, low%f, &
-                                    low%phi_jac, jac)
+            ! The scaled multipliers in real64, at their places in the lowered residual's
+            ! scratch vector (the assembly reads no other unknowns).
+            associate (multipliers => self%layout%multipliers, mu0 => self%layout%mu_at(0))
+                low%f(mu0 + 1:mu0 + multipliers) = real(x(mu0 + 1:mu0 + multipliers), dp)
+            end associate
+            call assemble_blocks(low%tab, low%hess, self%patterns, self%layout, low%step%h, &
+                                 low%f, low%phi_jac, jac)
         end associate
     end subroutine assemble_jacobian_lowered
 
@@ -958,30 +916,32 @@ contains
             ! sums stay in working precision although a guess needs less: a guess rounded
             ! to real64 leaves a rounding component in Newton's last iterate, which makes
             ! round-off grow faster over long runs (see docs/design.md).
-            do k = 0, self%order_m
-                if (k >= 1) then
-                    base = z_at(self, k)
-                    x(base + 1:base + n) = qa_prev - qa
-                    do i = 1, self%order_m
-                        x(base + 1:base + n) = x(base + 1:base + n) + self%extrap_q(k, i) * &
-                            x_prev(z_at(self, i) + 1:z_at(self, i) + n)
+            associate (lay => self%layout)
+                do k = 0, self%order_m
+                    if (k >= 1) then
+                        base = lay%z_at(k)
+                        x(base + 1:base + n) = qa_prev - qa
+                        do i = 1, self%order_m
+                            x(base + 1:base + n) = x(base + 1:base + n) + self%extrap_q(k, i) &
+                                * x_prev(lay%z_at(i) + 1:lay%z_at(i) + n)
+                        end do
+                    end if
+                    base = lay%mu_at(k)
+                    x(base + 1:base + m) = 0
+                    do i = 0, self%order_m
+                        x(base + 1:base + m) = x(base + 1:base + m) + self%extrap_q(k, i) * &
+                            x_prev(lay%mu_at(i) + 1:lay%mu_at(i) + m)
                     end do
-                end if
-                base = mu_at(self, k)
-                x(base + 1:base + m) = 0
-                do i = 0, self%order_m
-                    x(base + 1:base + m) = x(base + 1:base + m) + self%extrap_q(k, i) * &
-                        x_prev(mu_at(self, i) + 1:mu_at(self, i) + m)
                 end do
-            end do
-            do k = 0, self%order_n
-                base = w_at(self, k)
-                x(base + 1:base + n) = pa_prev - pa
-                do j = 0, self%order_n
-                    x(base + 1:base + n) = x(base + 1:base + n) + self%extrap_p(k, j) * &
-                        x_prev(w_at(self, j) + 1:w_at(self, j) + n)
+                do k = 0, self%order_n
+                    base = lay%w_at(k)
+                    x(base + 1:base + n) = pa_prev - pa
+                    do j = 0, self%order_n
+                        x(base + 1:base + n) = x(base + 1:base + n) + self%extrap_p(k, j) * &
+                            x_prev(lay%w_at(j) + 1:lay%w_at(j) + n)
+                    end do
                 end do
-            end do
+            end associate
             return
         end if
         call general_ratio()
@@ -991,18 +951,23 @@ contains
         !> Unequal steps: evaluate the previous polynomials at 1 + (h/h_prev) d_k.
         subroutine general_ratio()
             real(wp) :: q(self%n), p(self%n), lambda(self%m), ratio
-            integer :: i, j
+            integer :: i, j, base
             ratio = h / h_prev
             do i = 0, self%order_m
                 call self%dense(x_prev, qa_prev, pa_prev, h_prev, 1 + ratio * self%disp_nodes(i), &
                                 q, p, lambda)
-                if (i >= 1) x(z_at(self, i) + 1:z_at(self, i) + n) = q - qa
-                x(mu_at(self, i) + 1:mu_at(self, i) + m) = h * lambda
+                if (i >= 1) then
+                    base = self%layout%z_at(i)
+                    x(base + 1:base + n) = q - qa
+                end if
+                base = self%layout%mu_at(i)
+                x(base + 1:base + m) = h * lambda
             end do
             do j = 0, self%order_n
                 call self%dense(x_prev, qa_prev, pa_prev, h_prev, 1 + ratio * self%mom_nodes(j), &
                                 q, p, lambda)
-                x(w_at(self, j) + 1:w_at(self, j) + n) = p - pa
+                base = self%layout%w_at(j)
+                x(base + 1:base + n) = p - pa
             end do
         end subroutine general_ratio
 
@@ -1018,7 +983,7 @@ contains
         real(wp), intent(out) :: dq(:)  !! q_b - q_a
         real(wp), intent(out) :: dp(:)  !! p_b - p_a
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: g, i, l
+        integer :: g, i, l, base
         real(wp) :: coefficient
         logical :: linear
         ! The last Newton correction is tiny: update the evaluation at the previous iterate
@@ -1029,7 +994,8 @@ contains
             if (.not. status%ok()) return
         end if
         status%code = HOLOSYM_SUCCESS
-        dq = x(z_at(self, self%order_m) + 1:z_at(self, self%order_m) + self%n)
+        base = self%layout%z_at(self%order_m)
+        dq = x(base + 1:base + self%n)
         dp = 0
         do g = 1, self%gauss_points
             coefficient = self%step%h * self%gauss_weights(g)
@@ -1037,7 +1003,7 @@ contains
         end do
         do i = 0, self%order_m
             do l = 1, self%m
-                coefficient = self%lobatto_weights(i) * x(mu_at(self, i) + l)
+                coefficient = self%lobatto_weights(i) * x(self%layout%mu_at(i) + l)
                 dp = dp - coefficient * self%phi_jac(l, :, i)
             end do
         end do
@@ -1083,12 +1049,12 @@ contains
             do g = 1, self%gauss_points
                 dq_g = 0
                 do i = 1, self%order_m
-                    base = z_at(self, i)
+                    base = self%layout%z_at(i)
                     dq_g = dq_g + self%low%tab%b(g, i) * delta(base + 1:base + n)
                 end do
                 dp_g = 0
                 do j = 0, self%order_n
-                    base = w_at(self, j)
+                    base = self%layout%w_at(j)
                     dp_g = dp_g + self%low%tab%c(g, j) * delta(base + 1:base + n)
                 end do
                 weight = real(self%step%h * self%gauss_weights(g), dp)
@@ -1101,9 +1067,10 @@ contains
             end do
             ! d/dq_i (Phi(q_i)^T mu_i) = sum_l mu_il phi_l''(q_i); q_0 = q_a does not move.
             do i = 1, self%order_m
-                base = z_at(self, i)
+                base = self%layout%z_at(i)
                 do l = 1, self%m
-                    weight = self%low%tab%lobatto_weights(i) * real(x(mu_at(self, i) + l), dp)
+                    weight = self%low%tab%lobatto_weights(i) * &
+                    real(x(self%layout%mu_at(i) + l), dp)
                     do b = 1, n
                         do a = 1, n
                             change(a) = change(a) + weight * &
@@ -1128,18 +1095,23 @@ contains
         real(wp), intent(out) :: p(:)       !! p~(tau)
         real(wp), intent(out) :: lambda(:)  !! lambda~(tau)
         real(wp) :: rho(0:self%order_m), chi(0:self%order_n)
-        integer :: i, j
+        integer :: i, j, base
         rho = lagrange_values(self%disp_nodes, tau)
         chi = lagrange_values(self%mom_nodes, tau)
         q = qa
         lambda = 0
         do i = 0, self%order_m
-            if (i >= 1) q = q + rho(i) * x(z_at(self, i) + 1:z_at(self, i) + self%n)
-            lambda = lambda + rho(i) * x(mu_at(self, i) + 1:mu_at(self, i) + self%m) / h
+            if (i >= 1) then
+                base = self%layout%z_at(i)
+                q = q + rho(i) * x(base + 1:base + self%n)
+            end if
+            base = self%layout%mu_at(i)
+            lambda = lambda + rho(i) * x(base + 1:base + self%m) / h
         end do
         p = pa
         do j = 0, self%order_n
-            p = p + chi(j) * x(w_at(self, j) + 1:w_at(self, j) + self%n)
+            base = self%layout%w_at(j)
+            p = p + chi(j) * x(base + 1:base + self%n)
         end do
     end subroutine scheme_dense
 
@@ -1156,7 +1128,7 @@ contains
         integer :: j, base
         ends = 0
         do j = 0, self%order_n
-            base = w_at(self, j)
+            base = self%layout%w_at(j)
             ends(:, 1) = ends(:, 1) + self%mom_ends(j, 1) * x(base + 1:base + self%n)
             ends(:, 2) = ends(:, 2) + self%mom_ends(j, 2) * x(base + 1:base + self%n)
         end do
@@ -1177,9 +1149,10 @@ contains
         class(discrete_scheme), intent(in) :: self
         real(wp), intent(in) :: x(:)            !! solution of the step bound by set_step
         real(wp), intent(out) :: lambda(:, 0:)  !! m x (0:M) multipliers lambda_k
-        integer :: i
+        integer :: i, base
         do i = 0, self%order_m
-            lambda(:, i) = x(mu_at(self, i) + 1:mu_at(self, i) + self%m) / self%step%h
+            base = self%layout%mu_at(i)
+            lambda(:, i) = x(base + 1:base + self%m) / self%step%h
         end do
     end subroutine scheme_node_values
 
@@ -1190,8 +1163,12 @@ contains
         real(wp), intent(in) :: x(:)   !! solution of the step bound by set_step
         integer, intent(in) :: i       !! node index, 0..M
         real(wp), intent(out) :: q(:)  !! q_i (n)
+        integer :: base
         q = self%step%qa
-        if (i >= 1) q = q + x(z_at(self, i) + 1:z_at(self, i) + self%n)
+        if (i >= 1) then
+            base = self%layout%z_at(i)
+            q = q + x(base + 1:base + self%n)
+        end if
     end subroutine scheme_solution_node
 
 end module holosym_scheme
