@@ -689,136 +689,159 @@ contains
     end subroutine transpose_product
 
     !> The Newton matrix and d(p_b - p_a)/dx from the second derivatives (see the module
-    !! header for the equations), in real64.
+    !! header for the equations), in real64: the rows D_i and d(p_b - p_a) coordinate by
+    !! coordinate, then the rows of each constraint (`constraint_derivatives`).
     subroutine assemble(self)
         class(reduced_scheme_t), intent(inout) :: self
-        integer :: c, i, l, e, r, mm
-        mm = self%order_m
+        integer :: c, i, l, r
         self%jac_values = 0
         self%dp_values = 0
-        associate (lay => self%layout, low => self%low)
+        associate (lay => self%layout)
             do c = 1, self%n
-                do i = 0, mm - 1
+                do i = 0, self%order_m - 1
                     r = lay%d_row(c, i)
-                    call open_row(lay%jac_start, lay%jac_col, r)
-                    call d_derivative(c, i, 1.0_dp, self%jac_values)
-                    call close_row(lay%jac_start, lay%jac_col, r)
+                    call open_row(self%position, lay%jac_start, lay%jac_col, r)
+                    call d_derivative(self, c, i, 1.0_dp)
+                    call close_row(self%position, lay%jac_start, lay%jac_col, r)
                 end do
-                call open_row(lay%dp_start, lay%dp_col, c)
-                call dp_derivative(c)
-                call close_row(lay%dp_start, lay%dp_col, c)
+                call open_row(self%position, lay%dp_start, lay%dp_col, c)
+                call dp_derivative(self, c)
+                call close_row(self%position, lay%dp_start, lay%dp_col, c)
             end do
             do l = 1, self%m
-                do i = 1, mm
-                    r = lay%phi_row(l, i)
-                    call open_row(lay%jac_start, lay%jac_col, r)
-                    do e = lay%row_entry_start(l), lay%row_entry_start(l + 1) - 1
-                        call put(self%jac_values, lay%z_col(lay%phi_cols(lay%row_entry(e)), i), &
-                                 low%pv(lay%row_entry(e), i))
-                    end do
-                    call close_row(lay%jac_start, lay%jac_col, r)
-                end do
-                ! (Phi(q_M) M^-1 D_M)_l: Phi's row times dD_M, plus d(Phi(q) v)/dq at q_M.
-                r = lay%v_row(l)
-                call open_row(lay%jac_start, lay%jac_col, r)
-                do e = lay%row_entry_start(l), lay%row_entry_start(l + 1) - 1
-                    c = lay%phi_cols(lay%row_entry(e))
-                    call d_derivative(c, mm, low%pv(lay%row_entry(e), mm) * &
-                                      self%low_inv_mass(c), self%jac_values)
-                    call put(self%jac_values, lay%z_col(c, mm), self%kv(lay%row_entry(e)))
-                end do
-                call close_row(lay%jac_start, lay%jac_col, r)
+                call constraint_derivatives(self, l)
             end do
         end associate
-
-    contains
-
-        !> Map the columns of row r of a pattern to their entries.
-        subroutine open_row(start, col, r)
-            integer, intent(in) :: start(:), col(:), r
-            integer :: e
-            do e = start(r), start(r + 1) - 1
-                self%position(col(e)) = e
-            end do
-        end subroutine open_row
-
-        subroutine close_row(start, col, r)
-            integer, intent(in) :: start(:), col(:), r
-            self%position(col(start(r):start(r + 1) - 1)) = 0
-        end subroutine close_row
-
-        !> values(entry of column j in the open row) += value.
-        subroutine put(values, j, value)
-            real(dp), intent(inout) :: values(:)
-            integer, intent(in) :: j
-            real(dp), intent(in) :: value
-            values(self%position(j)) = values(self%position(j)) + value
-        end subroutine put
-
-        !> factor * dD_i[c]/dx into the open row:
-        !! dD_i[c]/dz_k[c'] = (m_c/h) S(i,k) [c = c'] - h sum_g w_g B_gi B_gk U''_g(c,c')
-        !!                    - wl_i L_i(c,c') [k = i];   dD_i[c]/dmu_i[l] = -wl_i Phi_i(l,c).
-        subroutine d_derivative(c, i, factor, values)
-            integer, intent(in) :: c, i
-            real(dp), intent(in) :: factor
-            real(dp), intent(inout) :: values(:)
-            integer :: a, k, g, cc, e
-            real(dp) :: value, h
-            h = real(self%h, dp)
-            associate (lay => self%layout, tab => self%low_tab)
-                do a = lay%near_start(c), lay%near_start(c + 1) - 1
-                    cc = lay%near(a)
-                    do k = 1, self%order_m
-                        value = 0
-                        if (cc == c) value = self%low_mass_over_h(c) * tab%st(k, i)
-                        if (.not. self%linear_potential) then
-                            do g = 1, self%gauss_points
-                                value = value - h * tab%wb(g, i) * tab%bt(k, g) * self%hu(a, g)
-                            end do
-                        end if
-                        if (k == i .and. self%m > 0) value = value - tab%wl(i) * self%lv(a, i)
-                        call put(values, lay%z_col(cc, k), factor * value)
-                    end do
-                end do
-                do e = lay%col_entry_start(c), lay%col_entry_start(c + 1) - 1
-                    call put(values, lay%mu_col(lay%phi_rows(lay%col_entry(e)), i), &
-                             -factor * tab%wl(i) * self%low%pv(lay%col_entry(e), i))
-                end do
-            end associate
-        end subroutine d_derivative
-
-        !> d(p_b - p_a)[c]/dx into the open row of the dp pattern:
-        !! d/dz_k[c'] = -h sum_g w_g B_gk U''_g(c,c') - wl_k L_k(c,c');
-        !! d/dmu_i[l] = -wl_i Phi_i(l,c).
-        subroutine dp_derivative(c)
-            integer, intent(in) :: c
-            integer :: a, k, g, cc, e, i
-            real(dp) :: value, h
-            h = real(self%h, dp)
-            associate (lay => self%layout, tab => self%low_tab)
-                do a = lay%near_start(c), lay%near_start(c + 1) - 1
-                    cc = lay%near(a)
-                    do k = 1, self%order_m
-                        value = 0
-                        if (.not. self%linear_potential) then
-                            do g = 1, self%gauss_points
-                                value = value - h * tab%w(g) * tab%bt(k, g) * self%hu(a, g)
-                            end do
-                        end if
-                        if (self%m > 0) value = value - tab%wl(k) * self%lv(a, k)
-                        call put(self%dp_values, lay%z_col(cc, k), value)
-                    end do
-                end do
-                do e = lay%col_entry_start(c), lay%col_entry_start(c + 1) - 1
-                    do i = 0, self%order_m
-                        call put(self%dp_values, lay%mu_col(lay%phi_rows(lay%col_entry(e)), i), &
-                                 -tab%wl(i) * self%low%pv(lay%col_entry(e), i))
-                    end do
-                end do
-            end associate
-        end subroutine dp_derivative
-
     end subroutine assemble
+
+    !> The Newton matrix's rows of constraint l: d phi_l(q_i)/dx (i = 1..M), Phi's row l at
+    !! q_i, and d(Phi(q_M) M^-1 D_M)_l/dx, Phi's row times dD_M plus d(Phi(q) v)/dq at q_M.
+    subroutine constraint_derivatives(self, l)
+        type(reduced_scheme_t), intent(inout) :: self
+        integer, intent(in) :: l !! constraint
+        integer :: c, i, e, r, mm
+        mm = self%order_m
+        associate (lay => self%layout, low => self%low)
+            do i = 1, mm
+                r = lay%phi_row(l, i)
+                call open_row(self%position, lay%jac_start, lay%jac_col, r)
+                do e = lay%row_entry_start(l), lay%row_entry_start(l + 1) - 1
+                    call put(self%position, self%jac_values, &
+                             lay%z_col(lay%phi_cols(lay%row_entry(e)), i), &
+                             low%pv(lay%row_entry(e), i))
+                end do
+                call close_row(self%position, lay%jac_start, lay%jac_col, r)
+            end do
+            r = lay%v_row(l)
+            call open_row(self%position, lay%jac_start, lay%jac_col, r)
+            do e = lay%row_entry_start(l), lay%row_entry_start(l + 1) - 1
+                c = lay%phi_cols(lay%row_entry(e))
+                call d_derivative(self, c, mm, low%pv(lay%row_entry(e), mm) * &
+                                  self%low_inv_mass(c))
+                call put(self%position, self%jac_values, lay%z_col(c, mm), &
+                         self%kv(lay%row_entry(e)))
+            end do
+            call close_row(self%position, lay%jac_start, lay%jac_col, r)
+        end associate
+    end subroutine constraint_derivatives
+
+    !> Map the columns of row r of a pattern (compressed rows start, col) to their entries:
+    !! position(col) = entry, for `put`.
+    pure subroutine open_row(position, start, col, r)
+        integer, intent(inout) :: position(:) !! column -> entry of the open row
+        integer, intent(in) :: start(:)       !! first entry of each row
+        integer, intent(in) :: col(:)         !! column of each entry
+        integer, intent(in) :: r              !! row to open
+        integer :: e
+        do e = start(r), start(r + 1) - 1
+            position(col(e)) = e
+        end do
+    end subroutine open_row
+
+    !> Clear the map of `open_row` for row r.
+    pure subroutine close_row(position, start, col, r)
+        integer, intent(inout) :: position(:) !! column -> entry of the open row
+        integer, intent(in) :: start(:)       !! first entry of each row
+        integer, intent(in) :: col(:)         !! column of each entry
+        integer, intent(in) :: r              !! row to close
+        position(col(start(r):start(r + 1) - 1)) = 0
+    end subroutine close_row
+
+    !> values(entry of column j in the open row) += value.
+    pure subroutine put(position, values, j, value)
+        integer, intent(in) :: position(:)    !! column -> entry of the open row
+        real(dp), intent(inout) :: values(:)  !! values of the pattern
+        integer, intent(in) :: j              !! column
+        real(dp), intent(in) :: value         !! addend
+        values(position(j)) = values(position(j)) + value
+    end subroutine put
+
+    !> factor * dD_i[c]/dx into the open row of the Newton matrix (jac_values):
+    !! dD_i[c]/dz_k[c'] = (m_c/h) S(i,k) [c = c'] - h sum_g w_g B_gi B_gk U''_g(c,c')
+    !!                    - wl_i L_i(c,c') [k = i];   dD_i[c]/dmu_i[l] = -wl_i Phi_i(l,c).
+    subroutine d_derivative(self, c, i, factor)
+        type(reduced_scheme_t), intent(inout) :: self
+        integer, intent(in) :: c          !! coordinate
+        integer, intent(in) :: i          !! node, 0..M
+        real(dp), intent(in) :: factor    !! scale of the row
+        integer :: a, k, g, cc, e
+        real(dp) :: value, h
+        h = real(self%h, dp)
+        associate (lay => self%layout, tab => self%low_tab)
+            do a = lay%near_start(c), lay%near_start(c + 1) - 1
+                cc = lay%near(a)
+                do k = 1, self%order_m
+                    value = 0
+                    if (cc == c) value = self%low_mass_over_h(c) * tab%st(k, i)
+                    if (.not. self%linear_potential) then
+                        do g = 1, self%gauss_points
+                            value = value - h * tab%wb(g, i) * tab%bt(k, g) * self%hu(a, g)
+                        end do
+                    end if
+                    if (k == i .and. self%m > 0) value = value - tab%wl(i) * self%lv(a, i)
+                    call put(self%position, self%jac_values, lay%z_col(cc, k), factor * value)
+                end do
+            end do
+            do e = lay%col_entry_start(c), lay%col_entry_start(c + 1) - 1
+                call put(self%position, self%jac_values, &
+                         lay%mu_col(lay%phi_rows(lay%col_entry(e)), i), &
+                         -factor * tab%wl(i) * self%low%pv(lay%col_entry(e), i))
+            end do
+        end associate
+    end subroutine d_derivative
+
+    !> d(p_b - p_a)[c]/dx into the open row of the dp pattern (dp_values):
+    !! d/dz_k[c'] = -h sum_g w_g B_gk U''_g(c,c') - wl_k L_k(c,c');
+    !! d/dmu_i[l] = -wl_i Phi_i(l,c).
+    subroutine dp_derivative(self, c)
+        type(reduced_scheme_t), intent(inout) :: self
+        integer, intent(in) :: c          !! coordinate
+        integer :: a, k, g, cc, e, i
+        real(dp) :: value, h
+        h = real(self%h, dp)
+        associate (lay => self%layout, tab => self%low_tab)
+            do a = lay%near_start(c), lay%near_start(c + 1) - 1
+                cc = lay%near(a)
+                do k = 1, self%order_m
+                    value = 0
+                    if (.not. self%linear_potential) then
+                        do g = 1, self%gauss_points
+                            value = value - h * tab%w(g) * tab%bt(k, g) * self%hu(a, g)
+                        end do
+                    end if
+                    if (self%m > 0) value = value - tab%wl(k) * self%lv(a, k)
+                    call put(self%position, self%dp_values, lay%z_col(cc, k), value)
+                end do
+            end do
+            do e = lay%col_entry_start(c), lay%col_entry_start(c + 1) - 1
+                do i = 0, self%order_m
+                    call put(self%position, self%dp_values, &
+                             lay%mu_col(lay%phi_rows(lay%col_entry(e)), i), &
+                             -tab%wl(i) * self%low%pv(lay%col_entry(e), i))
+                end do
+            end do
+        end associate
+    end subroutine dp_derivative
 
     !> Step results from the last evaluation: q_b - q_a = z_M and p_b - p_a, from the
     !! working-precision evaluation (`residual`) or, with `lowered`, the real64 one
