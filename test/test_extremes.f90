@@ -11,8 +11,7 @@ module test_extremes
     use holosym, only: wp, holosym_status_t, constrained_hamiltonian, constrained_integrator, &
         spherical_pendulum, spring_linkage, planar_pendulum, project_to_manifold, &
         projection_report_t, manifold_residuals, manifold_tolerance_default, step_observer, &
-        step_info_t, gauss_legendre, gauss_lobatto, lagrange_matrices, lu_factor, lu_solve, &
-        newton_settings_t, newton_report_t, &
+        step_info_t, gauss_legendre, gauss_lobatto, lagrange_matrices, newton_settings_t, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
@@ -21,8 +20,8 @@ module test_extremes
         HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL, HOLOSYM_INVALID_MODEL, &
         HOLOSYM_INCONSISTENT_SYSTEM
     use holosym_status_codes, only: int_str, real_str
-    use holosym_newton, only: newton_solve
-    use holosym_scheme, only: discrete_scheme
+    use holosym_internal, only: lu_factor, lu_solve, newton_report_t, newton_solve, &
+        discrete_scheme
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
         check_status_code, overflow_traps
     implicit none
