@@ -16,6 +16,7 @@ module holosym_bench_scaling
     use holosym_systems, only: make_system
     use holosym_cli_common, only: fail, csv_real
     use holosym_output, only: output_t
+    use holosym_study_text, only: int64_str
     implicit none
     private
 
@@ -112,17 +113,9 @@ contains
         call out%line(trim(merge("real64 ", "real128", wp_is_double)) // "," // &
             trim(merge("general", "reduced", general)) // "," // int_str(links) // "," // &
             int_str(sys%n) // "," // int_str(sys%m) // "," // int_str(steps) // "," // &
-            csv_real(real(per_step, wp)) // "," // int64_text(peak_memory_kb()) // "," // &
+            csv_real(real(per_step, wp)) // "," // int64_str(peak_memory_kb()) // "," // &
             int_str(run_status%code))
     end subroutine scaling_point
-
-    pure function int64_text(value) result(text)
-        integer(int64), intent(in) :: value
-        character(len=:), allocatable :: text
-        character(len=24) :: buffer
-        write (buffer, '(i0)') value
-        text = trim(buffer)
-    end function int64_text
 
 end module holosym_bench_scaling
 

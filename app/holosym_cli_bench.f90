@@ -35,6 +35,7 @@ module holosym_cli_bench
     use holosym_bench_report, only: scaling_section, long_section, models_section, &
         check_report_files
     use holosym_bench_models, only: run_models
+    use holosym_study_text, only: int64_str, ratio_text
     implicit none
     private
 
@@ -273,14 +274,6 @@ contains
             csv_real(row%difference) // "," // csv_real(row%tolerance) // "," // &
             csv_real(real(row%compile_seconds, wp))
     end function csv_line
-
-    pure function int64_str(value) result(text)
-        integer(int64), intent(in) :: value
-        character(len=:), allocatable :: text
-        character(len=24) :: buffer
-        write (buffer, '(i0)') value
-        text = trim(buffer)
-    end function int64_str
 
     !> Write rows as CSV (the header line, then one line per row), the format
     !! `read_bench_csv` reads. Failure: HOLOSYM_INVALID_ARGUMENT naming the file and the
@@ -921,18 +914,6 @@ contains
         write (buffer, '(es9.2)') seconds
         text = trim(adjustl(buffer))
     end function seconds_text
-
-    function ratio_text(ratio) result(text)
-        real(real64), intent(in) :: ratio
-        character(len=:), allocatable :: text
-        character(len=16) :: buffer
-        if (ratio < 10) then
-            write (buffer, '(f10.2)') ratio
-        else
-            write (buffer, '(f10.1)') ratio
-        end if
-        text = trim(adjustl(buffer))
-    end function ratio_text
 
     !> Description of a row's configuration.
     function config_text(row) result(text)

@@ -1,11 +1,11 @@
 !> The `extremes` command: numerical stability at the extremes, measured.
 !! Six parts: long run (with the growth of round-off), tiny steps, high orders, large
 !! steps, stiff springs, near-singular constraints. Markdown to the output unit, progress to
-!! the error unit. The studies themselves live in holosym_extremes.
+!! the error unit. The studies themselves live in holosym_study_extremes.
 module holosym_cli_extremes
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, int_str, status_code_name, HOLOSYM_SUCCESS
-    use holosym_extremes, only: extremes_settings_t, extremes_settings, long_run_result_t, &
+    use holosym_study_extremes, only: extremes_settings_t, extremes_settings, long_run_result_t, &
         run_long_study, growth_result_t, run_growth_study, tiny_cell_t, run_tiny_study, &
         high_order_row_t, run_high_order_study, large_step_cell_t, run_large_step_study, &
         stiff_cell_t, run_stiff_study, near_singular_cell_t, run_near_singular_study, &

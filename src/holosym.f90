@@ -6,7 +6,10 @@
 !! Left out on purpose: the message helpers of holosym_status_codes (`set_status`, `int_str`,
 !! `real_str`, `is_finite`), the CSV helper `parse_csv_fields` of holosym_ensemble_files,
 !! the text files of holosym_text_file (`text_file_t`, `read_text_lines`), `sorted_order`
-!! of holosym_ensemble and the kernel modules of the schemes.
+!! of holosym_ensemble and the kernel modules of the schemes. The building blocks under the
+!! integrator (dense LU, Newton's method, the discrete scheme, the task farm and its
+!! records, the lines of the ensemble files) are [[holosym_internal]], with no stability
+!! promise.
 !!
 !! - [[holosym_kinds:wp]], `dp`, `wp_is_double`: the working kind (real128, or real64 with
 !!   `-DHOLOSYM_REAL64`), real64, and whether they are the same.
@@ -32,15 +35,9 @@
 !!   procedures and declarations compared with each other at a state (the integrator runs
 !!   it at the first start; docs/user_system.md).
 !! - [[state_from_velocities]]: a state on the manifold from positions and velocities.
-!! - [[newton_settings_t]], [[newton_report_t]]: the Newton settings of an integrator
-!!   (`integ%newton`) and what one solve did; [[nonlinear_system]], [[newton_solve]],
-!!   [[newton_workspace_t]], `LINEAR_SOLVER_NATIVE`, `LINEAR_SOLVER_MIXED`: Newton's method
-!!   on any square system.
-!! - [[discrete_scheme]], [[scheme_counters_t]], [[unknown_count]]: the general scheme's
-!!   equations of one step and their size for (M, N, G, n, m); `max_order_m`,
-!!   `max_order_n`, `max_gauss_points`: the limits of M, N and G (docs/status-codes.md);
-!!   `JACOBIAN_ASSEMBLED`,
-!!   `JACOBIAN_RESIDUAL_DIFFERENCES`, `HESSIANS_USER`, `HESSIANS_DIFFERENCES`: its modes.
+!! - [[newton_settings_t]]: the Newton settings of an integrator (`integ%newton`).
+!! - `max_order_m`, `max_order_n`, `max_gauss_points`: the limits of M, N and G
+!!   (docs/status-codes.md).
 !! - [[project_to_manifold]], [[projection_report_t]],
 !!   `projection_max_iterations_default`: moves a nearby state onto the manifold.
 !! - [[manifold_residuals]], [[full_rank_constraints]], `manifold_tolerance_default`:
@@ -56,17 +53,12 @@
 !! - [[run_ensemble]], [[ensemble_settings_t]], [[ensemble_states_t]],
 !!   [[ensemble_result_t]], [[ensemble_sink]], [[check_ensemble]], [[ensemble_steps]],
 !!   [[integrate_member]], [[perturbed_states]]: many trajectories of one system on threads
-!!   (or MPI ranks), results by id; [[read_ensemble_states]], [[ensemble_csv_sink]],
-!!   [[result_header]], [[result_row]], [[samples_header]]: their CSV files (docs/ensemble.md).
-!! - [[farm_job]], [[task_farm]], [[openmp_farm]], [[record_reader_t]], `put`: the task farm
-!!   under the ensemble (a job's tasks on workers, results to one collector, packed as
-!!   records), for parallel drivers of one's own.
+!!   (or MPI ranks), results by id; [[read_ensemble_states]], [[ensemble_csv_sink]]: their
+!!   CSV files (docs/ensemble.md); [[openmp_farm]]: the threads that compute them (the
+!!   `farm` argument of `run_ensemble`).
 !! - [[gauss_legendre]], [[gauss_lobatto]]: quadrature rules on [0, 1].
 !! - [[lagrange_values]], [[lagrange_derivatives]], [[lagrange_matrices]]: the Lagrange
 !!   basis on given nodes.
-!! - [[lu_factor]], [[lu_solve]], [[default_pivot_tolerance]]: LU factorisation with
-!!   partial pivoting in working precision; [[lu_factor_dp]], [[lu_solve_dp]],
-!!   [[default_pivot_tolerance_dp]]: the same in real64 through LAPACK.
 !! - [[holosym_status_t]], [[status_code_name]]: the status returned through the optional
 !!   `status` argument of every fallible procedure; the name of a code.
 !! - `HOLOSYM_SUCCESS`, `HOLOSYM_INVALID_ORDER`, `HOLOSYM_INVALID_DIMENSION`,
@@ -90,8 +82,6 @@ module holosym
         HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_derivatives, lagrange_matrices
-    use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
-        lu_solve_dp, default_pivot_tolerance_dp
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
         difference_constraint_hessian
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, &
@@ -106,23 +96,18 @@ module holosym
     use holosym_model_dumbbell, only: sphere_dumbbell
     use holosym_model_magnetic, only: magnetic_sphere
     use holosym_model_generic, only: generic_pendulum
-    use holosym_newton, only: nonlinear_system, newton_solve, newton_settings_t, &
-        newton_report_t, newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
-    use holosym_scheme, only: discrete_scheme, scheme_counters_t, unknown_count, &
-        max_order_m, max_order_n, max_gauss_points, JACOBIAN_ASSEMBLED, &
-        JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
+    use holosym_newton, only: newton_settings_t
+    use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer, &
         integrator_stats_t, step_dense_output
     use holosym_observers, only: trajectory_writer, energy_monitor, trajectory_header
     use holosym_rattle, only: rattle_integrator, rattle_stats_t, composition_coefficients, &
         rattle_max_order
-    use holosym_task_farm, only: farm_job, task_farm, openmp_farm
-    use holosym_records, only: record_reader_t, put
+    use holosym_task_farm, only: openmp_farm
     use holosym_ensemble, only: ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
         ensemble_sink, run_ensemble, check_ensemble, ensemble_steps, integrate_member, &
         perturbed_states
-    use holosym_ensemble_files, only: read_ensemble_states, ensemble_csv_sink, result_header, &
-        result_row, samples_header
+    use holosym_ensemble_files, only: read_ensemble_states, ensemble_csv_sink
     implicit none
     private
 
@@ -156,20 +141,10 @@ module holosym
     public :: check_system, system_check_report_t, check_entry_t
     public :: spherical_pendulum, spring_linkage, planar_pendulum, pendulum_chain
     public :: sphere_dumbbell, magnetic_sphere, generic_pendulum
-    ! Solvers: dense LU (working precision; real64 through LAPACK) and Newton's method on
-    ! any `nonlinear_system`.
-    public :: lu_factor, lu_solve, default_pivot_tolerance
-    public :: lu_factor_dp, lu_solve_dp, default_pivot_tolerance_dp
-    public :: nonlinear_system, newton_solve, newton_settings_t, newton_report_t, &
-        newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
-    ! The discrete equations of one step, with the modes of its Jacobian and Hessians
-    ! (`discrete_scheme%jacobian_mode`, `%hessian_mode`; the integrator sets them from its
-    ! `jacobian` and `hessians` settings).
-    public :: discrete_scheme, scheme_counters_t, unknown_count
+    ! The Newton settings of an integrator (`integ%newton`).
+    public :: newton_settings_t
     ! Limits of (M, N, G) (HOLOSYM_INVALID_ORDER beyond them; docs/status-codes.md).
     public :: max_order_m, max_order_n, max_gauss_points
-    public :: JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, &
-        HESSIANS_DIFFERENCES
     ! The integrator, its per-step diagnostics, observer (with the dense output of the step
     ! just taken) and work counters; the ready-made observers: CSV trajectory writer and
     ! energy/constraint monitor.
@@ -178,14 +153,12 @@ module holosym
     public :: trajectory_writer, energy_monitor, trajectory_header
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order
-    ! Parallel work: a task farm (OpenMP threads here; MPI ranks with holosym-mpi) and the
-    ! records in which tasks return their results.
-    public :: farm_job, task_farm, openmp_farm, record_reader_t, put
-    ! Ensembles: many trajectories of one system in parallel, and their CSV files (states
-    ! in; results written as they complete, resumable; timing log; samples).
+    ! Ensembles: many trajectories of one system in parallel (OpenMP threads here; MPI
+    ! ranks with holosym-mpi), and their CSV files (states in; results written as they
+    ! complete, resumable; timing log; samples).
     public :: ensemble_settings_t, ensemble_states_t, ensemble_result_t, ensemble_sink, &
         run_ensemble, check_ensemble, ensemble_steps, integrate_member, perturbed_states
-    public :: read_ensemble_states, ensemble_csv_sink, result_header, result_row, &
-        samples_header
+    public :: openmp_farm
+    public :: read_ensemble_states, ensemble_csv_sink
 
 end module holosym

@@ -1,7 +1,8 @@
-!> Tests of the public API as a user sees it: everything here comes from `use holosym`
-!! alone (the list below fails to compile when the façade loses a name), the documented
-!! keyword names of `init` and `orders` work, and the types and procedures the façade adds
-!! to the integrator (work counters, difference Hessians, RATTLE) are usable through it.
+!> Tests of the public API as a user sees it: everything a user calls comes from
+!! `use holosym` alone (the list below fails to compile when the façade loses a name), the
+!! building blocks under it from `use holosym_internal`, the documented keyword names of
+!! `init` and `orders` work, and the types and procedures the façade adds to the integrator
+!! (work counters, difference Hessians, RATTLE) are usable through it.
 module test_api
     use holosym, only: wp, dp, wp_is_double, holosym_status_t, status_code_name, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
@@ -14,14 +15,14 @@ module test_api
         difference_constraint_hessian, manifold_residuals, manifold_tolerance_default, &
         full_rank_constraints, project_to_manifold, projection_report_t, &
         projection_max_iterations_default, spherical_pendulum, spring_linkage, &
-        planar_pendulum, lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
+        planar_pendulum, newton_settings_t, constrained_integrator, step_info_t, &
+        step_observer, integrator_stats_t, rattle_integrator, rattle_stats_t, &
+        composition_coefficients, rattle_max_order
+    use holosym_internal, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
         lu_solve_dp, default_pivot_tolerance_dp, nonlinear_system, newton_solve, &
-        newton_settings_t, newton_report_t, newton_workspace_t, LINEAR_SOLVER_NATIVE, &
-        LINEAR_SOLVER_MIXED, discrete_scheme, scheme_counters_t, unknown_count, &
-        JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, &
-        HESSIANS_DIFFERENCES, constrained_integrator, step_info_t, step_observer, &
-        integrator_stats_t, rattle_integrator, rattle_stats_t, composition_coefficients, &
-        rattle_max_order
+        newton_report_t, newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED, &
+        discrete_scheme, scheme_counters_t, unknown_count, JACOBIAN_ASSEMBLED, &
+        JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close
     implicit none
     private
@@ -37,7 +38,7 @@ contains
             new_test("work_counters_through_the_facade", work_counters), &
             new_test("difference_hessians_through_the_facade", difference_hessians), &
             new_test("rattle_through_the_facade", rattle), &
-            new_test("scheme_and_newton_through_the_facade", scheme_and_newton)]
+            new_test("scheme_and_newton_through_holosym_internal", scheme_and_newton)]
     end function api_tests
 
     !> `init(sys, M=2, N=1, G=3)` as the documentation writes it sets up the same scheme as
@@ -128,8 +129,9 @@ contains
         call check(error, status%ok() .and. stats%steps == 1, "one RATTLE step counted")
     end subroutine rattle
 
-    !> The scheme and Newton's method, the layer below the integrator, through the façade:
-    !! the first step solved directly matches the integrator's step to round-off.
+    !> The scheme and Newton's method, the layer below the integrator, through
+    !! holosym_internal: the first step solved directly matches the integrator's step to
+    !! round-off.
     subroutine scheme_and_newton(error)
         type(test_error_t), allocatable, intent(out) :: error
         type(spherical_pendulum), target :: sys

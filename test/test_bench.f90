@@ -7,6 +7,7 @@ module test_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
     use holosym_status_codes, only: int_str, real_str, HOLOSYM_SUCCESS, HOLOSYM_NEWTON_DIVERGED
+    use holosym_study_text, only: int64_str, ratio_text
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
         split_field
     use holosym_test_commands, only: command_result_t, text_line_t, run_holosym, run_shell, &
@@ -85,15 +86,6 @@ contains
         text = trim(adjustl(buffer))
     end function real_text
 
-    !> An integer as text.
-    function i64_text(value) result(text)
-        integer(int64), intent(in) :: value
-        character(len=:), allocatable :: text
-        character(len=24) :: buffer
-        write (buffer, '(i0)') value
-        text = trim(buffer)
-    end function i64_text
-
     !> The CSV line of a row.
     function row_line(row) result(line)
         type(row_t), intent(in) :: row
@@ -104,9 +96,9 @@ contains
             real_text(row%h) // "," // int_str(row%steps) // "," // real_text(row%error) // &
             "," // real_text(row%energy_error) // "," // real_text(row%constraint_residual) // &
             "," // real_text(row%seconds) // "," // real_text(row%seconds / max(row%steps, 1)) &
-            // "," // i64_text(row%newton_iterations) // "," // i64_text(row%residuals) // "," &
-            // i64_text(row%gradients) // "," // i64_text(row%hessians) // "," // &
-            i64_text(row%factorizations) // "," // int_str(row%code) // "," // &
+            // "," // int64_str(row%newton_iterations) // "," // int64_str(row%residuals) // "," &
+            // int64_str(row%gradients) // "," // int64_str(row%hessians) // "," // &
+            int64_str(row%factorizations) // "," // int_str(row%code) // "," // &
             real_text(row%difference) // "," // real_text(row%tolerance) // "," // &
             real_text(row%compile_seconds)
     end function row_line
@@ -195,19 +187,6 @@ contains
             read (text, *, iostat=ios) value
         end select
     end subroutine read_field
-
-    !> A ratio as the summary writes it: two decimals below 10, one above.
-    function ratio_expected(ratio) result(text)
-        real(real64), intent(in) :: ratio
-        character(len=:), allocatable :: text
-        character(len=16) :: buffer
-        if (ratio < 10) then
-            write (buffer, '(f10.2)') ratio
-        else
-            write (buffer, '(f10.1)') ratio
-        end if
-        text = trim(adjustl(buffer))
-    end function ratio_expected
 
     !> Number of digits before the exponent of a number in scientific notation.
     pure integer function mantissa_digits(text)
@@ -554,11 +533,11 @@ contains
         call check(error, cell(line, 3) == "(6,5,7) h=1.000", "cheapest holosym: " // line)
         call check(error, cell(line, 4) == "4.00E-03", "its seconds: " // cell(line, 4))
         call check(error, cell(line, 5) == "suzuki p=0 h=0.2500", "cheapest RATTLE: " // line)
-        call check(error, cell(line, 7) == ratio_expected(rattle_seconds / best_seconds), &
+        call check(error, cell(line, 7) == ratio_text(rattle_seconds / best_seconds), &
             "x RATTLE " // cell(line, 7))
         call check(error, cell(line, 8) == "tol 1.0E-12, order 13", "heyoka run: " // line)
         call check(error, cell(line, 9) == "1.60E-03", "heyoka's time: " // cell(line, 9))
-        call check(error, cell(line, 10) == ratio_expected(heyoka_seconds / best_seconds), &
+        call check(error, cell(line, 10) == ratio_text(heyoka_seconds / best_seconds), &
             "x heyoka " // cell(line, 10))
         call check(error, cell(line, 11) == "2.50E-01", "compile time: " // cell(line, 11))
         call check(error, cell(line, 12) == "3.0E-12" .and. cell(line, 13) == "2.0E-12", &
@@ -620,9 +599,9 @@ contains
             if (index(result%out(i)%text, "| (2,1,3) real128 |") /= 1) cycle
             found = found + 1
             if (found == 2) then
-                call check(error, cell(result%out(i)%text, 4) == ratio_expected(0.8_real64 / &
+                call check(error, cell(result%out(i)%text, 4) == ratio_text(0.8_real64 / &
                     0.1_real64), "x plain of option set 9: " // result%out(i)%text)
-                call check(error, cell(result%out(i)%text, 5) == ratio_expected(400.0_real64 / &
+                call check(error, cell(result%out(i)%text, 5) == ratio_text(400.0_real64 / &
                     steps(3)%steps), &
                     "Newton iterations per step: " // result%out(i)%text)
             end if

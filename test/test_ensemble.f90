@@ -10,9 +10,10 @@ module test_ensemble
     use holosym, only: wp, spherical_pendulum, spring_linkage, constrained_integrator, &
         holosym_status_t, status_code_name, ensemble_settings_t, ensemble_states_t, &
         ensemble_result_t, ensemble_sink, run_ensemble, perturbed_states, openmp_farm, &
-        integrate_member, record_reader_t, put, project_to_manifold, HOLOSYM_SUCCESS, &
+        integrate_member, project_to_manifold, HOLOSYM_SUCCESS, &
         HOLOSYM_OFF_MANIFOLD, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_USER_ABORT, HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_NONFINITE_VALUE
+    use holosym_internal, only: record_reader_t, put
     use holosym_status_codes, only: int_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, overflow_traps
     use holosym_test_commands, only: command_result_t, run_holosym, run_shell, shell_quote, &

@@ -10,9 +10,7 @@ module test_extremes
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym, only: wp, holosym_status_t, constrained_hamiltonian, constrained_integrator, &
         spherical_pendulum, spring_linkage, planar_pendulum, project_to_manifold, &
-        projection_report_t, manifold_residuals, manifold_tolerance_default, step_observer, &
-        step_info_t, gauss_legendre, gauss_lobatto, lagrange_matrices, lu_factor, lu_solve, &
-        newton_settings_t, newton_report_t, &
+        projection_report_t, manifold_residuals, manifold_tolerance_default, step_info_t, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_OFF_MANIFOLD, &
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
@@ -21,8 +19,9 @@ module test_extremes
         HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL, HOLOSYM_INVALID_MODEL, &
         HOLOSYM_INCONSISTENT_SYSTEM
     use holosym_status_codes, only: int_str, real_str
-    use holosym_newton, only: newton_solve
-    use holosym_scheme, only: discrete_scheme
+    use holosym_study_extremes, only: gauss_rule_error, lobatto_rule_error, basis_error, &
+        jacobian_conditioning, run_monitor, monitor_start, search_largest_step, &
+        near_singular_cell_t, run_near_singular_study, max_study_order, error_floor
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
         check_status_code, overflow_traps
     implicit none
@@ -38,11 +37,6 @@ module test_extremes
     real(wp), parameter :: drift_factor = 2
     !> Quadrature and basis up to 16 points must be accurate to ~1e-32: 2**10 epsilon.
     real(wp), parameter :: rule_tolerance = 1024 * eps
-    !> Largest M of the high-order range (G = 16 Gauss points).
-    integer, parameter :: max_study_order = 15
-    !> Errors at or below this are round-off, not truncation: 2**20 epsilon (2.0e-28 in
-    !! real128), the round-off of a few thousand steps with some margin.
-    real(wp), parameter :: error_floor = 1048576 * eps
     !> A measured order agrees with the law 2M within this distance (as the tables command).
     real(wp), parameter :: order_agreement = 0.3_wp
     !> Largest decimal exponent e of the randomized off-manifold offsets 10**(-e): the offset
@@ -108,26 +102,6 @@ module test_extremes
     contains
         procedure :: dh_dq => nan_dh_dq
     end type nan_pendulum
-
-    !> Records a run step by step: energy error (relative), constraint residuals, largest
-    !! multiplier and, for the spherical pendulum, the change of L_z = x p_y - y p_x.
-    type, extends(step_observer) :: run_record
-        class(constrained_hamiltonian), allocatable :: sys !! the system, for H
-        real(wp) :: energy0 = 0        !! H at the start
-        real(wp) :: energy_scale = 1   !! |H0|, or 1 when H0 = 0
-        integer :: window = 0          !! early window of the drift ratio (steps)
-        logical :: track_lz = .false.  !! record L_z
-        real(wp) :: lz0 = 0            !! L_z at the start
-        integer :: steps = 0           !! steps recorded
-        real(wp) :: energy_window = 0  !! max relative energy error in the window
-        real(wp) :: energy_max = 0     !! max relative energy error
-        real(wp) :: constraint_max = 0 !! max |phi| at the displacement nodes
-        real(wp) :: velocity_max = 0   !! max |Phi H_p| at the step ends
-        real(wp) :: lambda_max = 0     !! max |lambda|
-        real(wp), allocatable :: lz_error(:) !! L_z - L_z(0) after each step
-    contains
-        procedure :: observe => record_observe
-    end type run_record
 
 contains
 
@@ -568,46 +542,19 @@ contains
 
     ! ------------------------------------------------------------------ studies, shortened
 
-    !> Set up a run record for a run from (q, p) of `steps` steps.
+    !> Set up the extremes studies' monitor for a run from (q, p) of `steps` steps, with
+    !! L_z recorded after each step when `track_lz`.
     subroutine record_start(record, sys, q, p, steps, window, track_lz)
-        type(run_record), intent(out) :: record         !! the record
+        type(run_monitor), intent(out) :: record          !! the record
         class(constrained_hamiltonian), intent(in) :: sys !! the system
-        real(wp), intent(in) :: q(:), p(:)              !! start state
-        integer, intent(in) :: steps                    !! steps of the run
-        integer, intent(in) :: window                   !! early window of the drift ratio
-        logical, intent(in) :: track_lz                 !! record L_z (spherical pendulum)
-        allocate (record%sys, source=sys)
-        record%energy0 = sys%hamiltonian(q, p)
-        record%energy_scale = abs(record%energy0)
-        if (.not. record%energy_scale > 0) record%energy_scale = 1
-        record%window = window
-        record%track_lz = track_lz
-        if (track_lz) record%lz0 = q(1) * p(2) - q(2) * p(1)
+        real(wp), intent(in) :: q(:), p(:)                !! start state
+        integer, intent(in) :: steps                      !! steps of the run
+        integer, intent(in) :: window                     !! early window of the drift ratio
+        logical, intent(in) :: track_lz                   !! record L_z (spherical pendulum)
+        call monitor_start(record, sys, q, p, steps, 2, track_lz, window)
         allocate (record%lz_error(steps))
         record%lz_error = 0
     end subroutine record_start
-
-    !> Record one step.
-    subroutine record_observe(self, step, t, q, p, info, halt)
-        class(run_record), intent(inout) :: self !! the record
-        integer, intent(in) :: step           !! step number
-        real(wp), intent(in) :: t             !! time
-        real(wp), intent(in) :: q(:)          !! coordinates after the step
-        real(wp), intent(in) :: p(:)          !! momenta after the step
-        type(step_info_t), intent(in) :: info !! diagnostics of the step
-        logical, intent(inout) :: halt        !! not set
-        real(wp) :: energy_error
-        energy_error = abs(self%sys%hamiltonian(q, p) - self%energy0) / self%energy_scale
-        self%steps = step
-        self%energy_max = max(self%energy_max, energy_error)
-        if (step <= self%window) self%energy_window = max(self%energy_window, energy_error)
-        self%constraint_max = max(self%constraint_max, info%constraint_residual)
-        self%velocity_max = max(self%velocity_max, info%velocity_residual)
-        if (size(info%lambda) > 0) self%lambda_max = max(self%lambda_max, &
-                                                         maxval(abs(info%lambda)))
-        if (self%track_lz .and. step <= size(self%lz_error)) &
-            self%lz_error(step) = q(1) * p(2) - q(2) * p(1) - self%lz0
-    end subroutine record_observe
 
     !> `steps` steps of (M, M - 1, M + 1) at h through `integrate`: the state at the end
     !! and the record of the run.
@@ -618,7 +565,7 @@ contains
         real(wp), intent(in) :: h              !! step size
         integer, intent(in) :: steps           !! number of steps
         real(wp), intent(out) :: q_end(:)      !! q after the run
-        type(run_record), intent(out) :: record !! what happened
+        type(run_monitor), intent(out) :: record !! what happened
         type(holosym_status_t), intent(out) :: status !! outcome
         !> The general scheme even where the reduced step applies (references: it keeps the
         !! momenta as unknowns, with |E| ~ M^2 times less round-off than the reduced step).
@@ -640,7 +587,7 @@ contains
         type(test_error_t), allocatable, intent(out) :: error
         type(spherical_pendulum) :: sys
         type(constrained_integrator) :: integrator
-        type(run_record) :: record
+        type(run_monitor) :: record
         type(holosym_status_t) :: status
         real(wp) :: q(3), p(3)
         integer, parameter :: steps = 1000, window = 100
@@ -674,7 +621,7 @@ contains
         integer, parameter :: steps = 128, copies = 2
         type(spherical_pendulum) :: sys
         type(constrained_integrator) :: integrator
-        type(run_record) :: record
+        type(run_monitor) :: record
         type(step_info_t) :: info
         type(holosym_status_t) :: status
         real(wp) :: q0(3), p0(3), q(3), p(3)
@@ -755,7 +702,7 @@ contains
         real(wp), parameter :: bound = 0.08_wp
         type(spherical_pendulum) :: sys
         type(constrained_integrator) :: integrator
-        type(run_record) :: record
+        type(run_monitor) :: record
         type(holosym_status_t) :: status
         real(wp) :: q0(3), p0(3), q(3), p(3), sum_squares(2), rms
         integer :: c, path
@@ -815,7 +762,7 @@ contains
         real(wp), parameter :: step_sizes(3) = [h_large, 1.0e-3_wp, 1.0e-4_wp]
         type(spherical_pendulum) :: sys
         type(constrained_integrator) :: integrator
-        type(run_record) :: record
+        type(run_monitor) :: record
         type(holosym_status_t) :: status
         real(wp) :: q0(3), p0(3), q(3), p(3), q_ref(3), q_check(3), q_end(3), span, band
         real(wp) :: global_error(3), energy_error(3), reference_change
@@ -876,98 +823,6 @@ contains
         end do
     end subroutine quadrature_and_basis
 
-    !> Max error of the G-point Gauss-Legendre rule on tau**k, k = 0..2G-1, over [0, 1].
-    function gauss_rule_error(points) result(worst)
-        integer, intent(in) :: points
-        real(wp) :: worst
-        real(wp) :: nodes(points), weights(points)
-        integer :: k
-        call gauss_legendre(nodes, weights)
-        worst = 0
-        do k = 0, 2 * points - 1
-            worst = max(worst, abs(sum(weights * nodes**k) - 1.0_wp / (k + 1)))
-        end do
-    end function gauss_rule_error
-
-    !> Max error of the K-point Gauss-Lobatto rule on tau**k, k = 0..2K-3, over [0, 1].
-    function lobatto_rule_error(points) result(worst)
-        integer, intent(in) :: points
-        real(wp) :: worst
-        real(wp) :: nodes(points), weights(points)
-        integer :: k
-        call gauss_lobatto(nodes, weights)
-        worst = 0
-        do k = 0, 2 * points - 3
-            worst = max(worst, abs(sum(weights * nodes**k) - 1.0_wp / (k + 1)))
-        end do
-    end function lobatto_rule_error
-
-    !> Max error of the degree-M Lagrange basis on the M+1 Lobatto nodes at the M+1 Gauss
-    !! points: interpolated tau**k and its derivative k tau**(k-1), k = 0..M.
-    function basis_error(order_m) result(worst)
-        integer, intent(in) :: order_m
-        real(wp) :: worst
-        real(wp) :: nodes(order_m + 1), weights(order_m + 1)
-        real(wp) :: points(order_m + 1), gauss_w(order_m + 1)
-        real(wp) :: values(order_m + 1, order_m + 1), derivatives(order_m + 1, order_m + 1)
-        integer :: k
-        call gauss_lobatto(nodes, weights)
-        call gauss_legendre(points, gauss_w)
-        call lagrange_matrices(nodes, points, values, derivatives)
-        worst = 0
-        do k = 0, order_m
-            worst = max(worst, maxval(abs(matmul(values, nodes**k) - points**k)))
-            if (k >= 1) worst = max(worst, maxval(abs(matmul(derivatives, nodes**k) - &
-                                                      k * points**(k - 1))))
-        end do
-    end function basis_error
-
-    !> The first step from the pendulum's state solved with the scheme directly (cold
-    !! start): the smallest relative pivot and the 1-norm condition number of the
-    !! row-equilibrated Newton Jacobian at the solution.
-    subroutine jacobian_conditioning(sys, q0, p0, order_m, h, pivot_ratio, condition, status)
-        class(constrained_hamiltonian), intent(in), target :: sys !! the system
-        real(wp), intent(in) :: q0(:), p0(:)  !! start state
-        integer, intent(in) :: order_m        !! M (N = M - 1, G = M + 1)
-        real(wp), intent(in) :: h             !! step size
-        real(wp), intent(out) :: pivot_ratio  !! smallest relative pivot
-        real(wp), intent(out) :: condition    !! ||J||_1 ||J^-1||_1
-        type(holosym_status_t), intent(out) :: status !! outcome
-        type(discrete_scheme) :: scheme
-        type(newton_settings_t) :: settings
-        type(newton_report_t) :: report
-        real(wp), allocatable :: x(:), jac(:, :), inverse(:, :)
-        integer, allocatable :: pivots(:)
-        integer :: i, info
-        pivot_ratio = 0
-        condition = huge(1.0_wp)
-        call scheme%init(order_m, order_m - 1, order_m + 1, sys%n, sys%m, status)
-        if (.not. status%ok()) return
-        allocate (x(scheme%nx), jac(scheme%nx, scheme%nx), pivots(scheme%nx))
-        call scheme%set_step(sys, q0, p0, h)
-        call scheme%constant_guess(x)
-        call newton_solve(scheme, x, settings, max(maxval(abs(q0)), maxval(abs(p0))), report, &
-                          status)
-        if (status%ok()) call scheme%jacobian(x, jac, status)
-        if (.not. status%ok()) return
-        do i = 1, size(jac, 1)
-            if (maxval(abs(jac(i, :))) > 0) jac(i, :) = jac(i, :) / maxval(abs(jac(i, :)))
-        end do
-        allocate (inverse(scheme%nx, scheme%nx))
-        inverse = 0
-        do i = 1, scheme%nx
-            inverse(i, i) = 1
-        end do
-        condition = maxval(sum(abs(jac), dim=1))
-        call lu_factor(jac, pivots, info, pivot_ratio=pivot_ratio)
-        if (info /= 0) then
-            condition = huge(1.0_wp)
-            return
-        end if
-        call lu_solve(jac, pivots, inverse)
-        condition = condition * maxval(sum(abs(inverse), dim=1))
-    end subroutine jacobian_conditioning
-
     !> High orders shortened: orders 2M of the energy error for M = 1..3 (pendulum, T = 1,
     !! a pair of step sizes), and the first step's Newton Jacobian is well conditioned
     !! with a conditioning that worsens with M.
@@ -978,11 +833,11 @@ contains
         real(wp), parameter :: h_pair(2) = merge([0.25_wp, 0.125_wp], [0.5_wp, 0.25_wp], &
             precision(1.0_wp) >= 30)
         type(spherical_pendulum), target :: sys
-        type(run_record) :: record
+        type(run_monitor) :: record
         type(holosym_status_t) :: status
         real(wp) :: q0(3), p0(3), q_end(3), energy_error(2), order
         real(wp) :: pivot(3), condition(3)
-        integer :: order_m, k
+        integer :: order_m, k, iterations
         sys = spherical_pendulum()
         call sys%initial_state(q0, p0)
         do order_m = 1, 3
@@ -1001,7 +856,7 @@ contains
             call check(error, abs(order - 2 * order_m) <= order_agreement, "order of M = " // &
                 int_str(order_m) // ": " // real_str(order))
             call jacobian_conditioning(sys, q0, p0, order_m, 0.125_wp, pivot(order_m), &
-                                       condition(order_m), status)
+                                       condition(order_m), iterations, status%code)
             call check(error, status%ok() .and. condition(order_m) >= 1 .and. &
                 condition(order_m) < 1 / eps, "condition of M = " // int_str(order_m) // &
                 ": " // real_str(condition(order_m)))
@@ -1009,79 +864,6 @@ contains
                 condition(order_m) > condition(order_m - 1), "conditioning worsens with M")
         end do
     end subroutine high_orders
-
-    !> One first step (`run` false) or one run over T = 10 at step h with (1, 0, 2) from
-    !! (q0, p0): the status, the steps done and whether a failure is clean (code > 0, the
-    !! state finite, and unchanged when no step was done, else on the manifold).
-    subroutine large_step_trial(sys, q0, p0, run, h, status, clean)
-        class(constrained_hamiltonian), intent(in) :: sys !! the system
-        real(wp), intent(in) :: q0(:), p0(:)  !! start state
-        logical, intent(in) :: run            !! a run over T = 10, else one step
-        real(wp), intent(in) :: h             !! step size
-        type(holosym_status_t), intent(out) :: status !! outcome
-        logical, intent(out) :: clean         !! a clean failure
-        type(constrained_integrator) :: integrator
-        real(wp) :: q(size(q0)), p(size(p0))
-        integer :: done
-        q = q0
-        p = p0
-        done = 0
-        call integrator%init(sys, 1, 0, 2, status)
-        if (.not. status%ok()) return
-        if (run) then
-            call integrator%integrate(sys, q, p, h, max(1, nint(10 / h)), steps_done=done, &
-                                      status=status)
-        else
-            call integrator%step(sys, q, p, h, status=status)
-        end if
-        clean = status%code > 0 .and. all(ieee_is_finite(q)) .and. all(ieee_is_finite(p))
-        if (done == 0) then
-            clean = clean .and. same_bits(q, q0) .and. same_bits(p, p0)
-        else
-            clean = clean .and. on_manifold(sys, q, p)
-        end if
-    end subroutine large_step_trial
-
-    !> The largest h that succeeds (doubling from 1/8 up to 64, then 12 geometric
-    !! bisections) and the failing h just above it, with that failure.
-    subroutine largest_step(sys, q0, p0, run, h_good, h_bad, bad_status, bad_clean)
-        class(constrained_hamiltonian), intent(in) :: sys !! the system
-        real(wp), intent(in) :: q0(:), p0(:)  !! start state
-        logical, intent(in) :: run            !! runs over T = 10, else first steps
-        real(wp), intent(out) :: h_good       !! largest h found to succeed (0: none)
-        real(wp), intent(out) :: h_bad        !! failing h above it (0: none up to 64)
-        type(holosym_status_t), intent(out) :: bad_status !! failure at h_bad
-        logical, intent(out) :: bad_clean     !! whether it is clean
-        type(holosym_status_t) :: status
-        real(wp) :: h
-        logical :: clean
-        integer :: k
-        h_good = 0
-        h_bad = 0
-        bad_clean = .false.
-        h = 0.125_wp
-        do while (h <= 64)
-            call large_step_trial(sys, q0, p0, run, h, status, clean)
-            if (.not. status%ok()) exit
-            h_good = h
-            h = 2 * h
-        end do
-        if (h > 64 .or. h_good == 0) return
-        h_bad = h
-        bad_status = status
-        bad_clean = clean
-        do k = 1, 12
-            h = sqrt(h_good * h_bad)
-            call large_step_trial(sys, q0, p0, run, h, status, clean)
-            if (status%ok()) then
-                h_good = h
-            else
-                h_bad = h
-                bad_status = status
-                bad_clean = clean
-            end if
-        end do
-    end subroutine largest_step
 
     !> Large steps shortened (M = 1, pendulum and linkage): beyond the largest step Newton
     !! fails with a positive code, the state unchanged (a step) or finite and on the
@@ -1103,7 +885,8 @@ contains
             real(wp), allocatable :: q0(:), p0(:)
             real(wp) :: h_step, h_step_fail, h_run, h_run_fail
             type(holosym_status_t) :: step_failure, run_failure
-            logical :: step_clean, run_clean
+            logical :: step_clean, run_clean, capped
+            integer :: steps_done
             type(spherical_pendulum) :: sphere_model
             type(spring_linkage) :: linkage_model
             if (allocated(error)) return
@@ -1113,8 +896,8 @@ contains
             else
                 call linkage_model%initial_state(q0, p0)
             end if
-            call largest_step(sys, q0, p0, .false., h_step, h_step_fail, step_failure, &
-                              step_clean)
+            call search_largest_step(sys, q0, p0, 1, .false., h_step, h_step_fail, &
+                                     step_failure, steps_done, step_clean, capped, huge(1))
             call check(error, h_step > 0.125_wp .and. h_step_fail > h_step, name // &
                 ": h range " // real_str(h_step) // " .. " // real_str(h_step_fail))
             if (allocated(error)) return
@@ -1122,7 +905,8 @@ contains
                 ": first-step failure not clean, code " // int_str(step_failure%code))
             call check(error, index(step_failure%message, "h = ") > 0, name // &
                 ": message names h: " // step_failure%message)
-            call largest_step(sys, q0, p0, .true., h_run, h_run_fail, run_failure, run_clean)
+            call search_largest_step(sys, q0, p0, 1, .true., h_run, h_run_fail, run_failure, &
+                                     steps_done, run_clean, capped, huge(1))
             call check(error, h_run_fail > 0 .and. run_failure%code > 0 .and. run_clean, &
                 name // ": run failure not clean, code " // int_str(run_failure%code))
             call check(error, h_run > 0 .and. h_run <= h_step * (1 + 1.0e-3_wp), name // &
@@ -1139,7 +923,7 @@ contains
         real(wp), parameter :: omega_h(2) = [1.0_wp, 0.25_wp], pi = 4 * atan(1.0_wp)
         type(spring_linkage) :: sys
         type(constrained_integrator) :: integrator
-        type(run_record) :: record
+        type(run_monitor) :: record
         type(holosym_status_t) :: status
         real(wp) :: q(6), p(6), omega, h(2), energy_error(2)
         integer :: i, steps
@@ -1175,42 +959,18 @@ contains
         !! well above n eps, so real64 uses eps**(1/4) = 1.2e-4.
         real(wp), parameter :: delta_near = max(1.0e-8_wp, eps**0.25_wp)
         real(wp), parameter :: deltas(3) = [1.0e-2_wp, delta_near, 0.0_wp]
-        type(spring_linkage) :: sys
-        type(constrained_integrator) :: integrator
-        type(run_record) :: record
-        type(holosym_status_t) :: status(3)
-        real(wp) :: q(6), p(6), radius, excess, jac(3, 6), gram(3, 3), gram_pivot(3)
-        real(wp) :: lambda_max(3), constraint_max(3)
-        integer :: i, pivots(3), info, done(3)
-        do i = 1, size(deltas)
-            sys = spring_linkage()
-            radius = sys%track_radius
-            sys%rod_length = 2 * radius * (1 + deltas(i))
-            excess = 2 * radius * sqrt(deltas(i) * (2 + deltas(i)))
-            q = [-excess / 2, -radius, excess / 2, radius, -excess / 2, excess / 2]
-            p = 0
-            call sys%constraint_jacobian(q, jac)
-            gram = matmul(jac, transpose(jac))
-            call lu_factor(gram, pivots, info, tolerance=0.0_wp, pivot_ratio=gram_pivot(i))
-            call project_to_manifold(sys, q, p, status(i))
-            call record_start(record, sys, q, p, 2, 2, .false.)
-            done(i) = 0
-            call integrator%init(sys, 2, 1, 3, status(i))
-            if (status(i)%ok()) call integrator%integrate(sys, q, p, 1.0_wp / 64, 2, record, &
-                                                          done(i), status(i))
-            lambda_max(i) = record%lambda_max
-            constraint_max(i) = record%constraint_max
-        end do
-        call check(error, status(1)%ok() .and. status(2)%ok(), "delta > 0 runs")
-        call check(error, all(constraint_max(1:2) <= constraint_bound), &
+        type(near_singular_cell_t), allocatable :: cells(:)
+        call run_near_singular_study(deltas, 2, 1.0_wp / 64, cells)
+        call check(error, all(cells(1:2)%code == HOLOSYM_SUCCESS), "delta > 0 runs")
+        call check(error, all(cells(1:2)%constraint_max <= constraint_bound), &
             "near-singular constraints at round-off")
-        call check(error, gram_pivot(2) < gram_pivot(1) .and. lambda_max(2) > lambda_max(1), &
-            "pivot falls and lambda grows")
-        call check_status_code(error, status(3)%code, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
+        call check(error, cells(2)%gram_pivot < cells(1)%gram_pivot .and. &
+            cells(2)%lambda_max > cells(1)%lambda_max, "pivot falls and lambda grows")
+        call check_status_code(error, cells(3)%code, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
             "delta = 0")
-        call check(error, index(status(3)%message, "rank deficient") > 0, "message: " // &
-            status(3)%message)
-        call check(error, done(3) == 0, "no step at delta = 0")
+        call check(error, index(cells(3)%message, "rank deficient") > 0, "message: " // &
+            cells(3)%message)
+        call check(error, cells(3)%steps_done == 0, "no step at delta = 0")
     end subroutine near_singular
 
     ! ------------------------------------------------------------------ randomized

@@ -11,12 +11,13 @@ module test_hardening
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym, only: wp, holosym_status_t, constrained_hamiltonian, constrained_integrator, &
         spherical_pendulum, planar_pendulum, energy_monitor, pendulum_chain, newton_settings_t, &
-        newton_report_t, newton_solve, nonlinear_system, project_to_manifold, rattle_integrator, &
-        projection_report_t, unknown_count, max_order_m, max_order_n, max_gauss_points, &
+        project_to_manifold, rattle_integrator, &
+        projection_report_t, max_order_m, max_order_n, max_gauss_points, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, &
         HOLOSYM_INVALID_STEP_SIZE, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, &
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
         HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
+    use holosym_internal, only: newton_report_t, newton_solve, nonlinear_system, unknown_count
     use holosym_status_codes, only: int_str, real_str
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
         skip, overflow_traps

@@ -22,8 +22,8 @@
 !! gfortran 12, and stop the program in LLVM flang), and each write closes its file, so a
 !! write that does not reach the file stops the run with HOLOSYM_INVALID_ARGUMENT. Files
 !! read (states, a results file to resume) must be text: a control byte or a line beyond
-!! `max_text_line_length` (holosym_text_file) is refused, so that a device such as /dev/zero cannot make the
-!! reader loop.
+!! `max_text_line_length` (holosym_text_file) is refused, so that a device such as
+!! /dev/zero cannot make the reader loop.
 module holosym_ensemble_files
     use, intrinsic :: iso_fortran_env, only: int64
     use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
@@ -110,11 +110,11 @@ contains
         type(ensemble_states_t), intent(inout) :: states   !! the states read
         type(holosym_status_t), intent(out), optional :: status !! outcome
         type(ensemble_states_t) :: read
-        type(text_line_t), allocatable :: lines(:), fields(:)
-        integer, allocatable :: line_of(:), order(:)
+        type(text_line_t), allocatable :: lines(:)
+        integer, allocatable :: line_of(:)
         character(len=:), allocatable :: message
-        integer :: ios, i, k, rows, width, first_data, j
-        logical :: header
+        type(holosym_status_t) :: local
+        integer :: ios, width
 
         call read_lines_of(path, lines, ios, message)
         if (ios /= 0) then
@@ -122,11 +122,34 @@ contains
                 path // "': " // message)
             return
         end if
+        call locate_state_rows(path, n, lines, line_of, width, local)
+        if (local%ok()) call parse_state_rows(path, n, lines, line_of, width, read, local)
+        if (local%ok()) call check_unique_ids(path, read%id, line_of, local)
+        if (local%ok() .and. size(line_of) == 0) &
+            call set_status(local, HOLOSYM_INVALID_ARGUMENT, path // ": no states")
+        if (local%ok()) states = read
+        call set_status(status, local%code, local%message)
+    end subroutine read_ensemble_states
+
+    !> The data rows of a states file: the line of each (blank lines, comments and the
+    !! header skipped) and the field count every row must have, checked against the header
+    !! or, without one, the first row. Fails with HOLOSYM_INVALID_ARGUMENT, "FILE:LINE: what".
+    subroutine locate_state_rows(path, n, lines, line_of, width, status)
+        character(len=*), intent(in) :: path            !! the file, for messages
+        integer, intent(in) :: n                        !! coordinates of the system
+        type(text_line_t), intent(in) :: lines(:)       !! the file's lines
+        integer, allocatable, intent(out) :: line_of(:) !! line of each data row
+        integer, intent(out) :: width                   !! fields of every row (0: no rows)
+        type(holosym_status_t), intent(out) :: status   !! outcome
+        type(text_line_t), allocatable :: fields(:)
+        integer :: ios, i, rows
+        logical :: header
+
+        call set_status(status, HOLOSYM_SUCCESS, "")
         width = 0
         header = .false.
         rows = 0
         allocate (line_of(size(lines)))
-        first_data = 0
         do i = 1, size(lines)
             if (ignorable(lines(i)%text)) cycle
             call parse_csv_fields(lines(i)%text, fields, ios)
@@ -134,33 +157,67 @@ contains
                 if (fields(1)%text == "id") then
                     header = .true.
                     width = size(fields)
-                    if (.not. header_matches(fields)) then
-                        call fail(i, "the header must be id,q1..q" // int_str(n) // ",p1..p" // &
-                            int_str(n) // " and optionally h and T; got '" // &
-                            printable(lines(i)%text) // &
-                            "'")
+                    if (.not. header_matches(fields, n)) then
+                        call line_failure(status, path, i, "the header must be id,q1..q" // &
+                            int_str(n) // ",p1..p" // int_str(n) // " and optionally h and " // &
+                            "T; got '" // printable(lines(i)%text) // "'")
                         return
                     end if
                     cycle
                 end if
                 width = size(fields)
                 if (width < 2 * n + 1 .or. width > 2 * n + 3) then
-                    call fail(i, "expected 2n + 1 = " // int_str(2 * n + 1) // " fields " // &
-                        "(id,q1..q" // int_str(n) // ",p1..p" // int_str(n) // &
-                        "), optionally followed by h and T; got " // int_str(width))
+                    call line_failure(status, path, i, "expected 2n + 1 = " // &
+                        int_str(2 * n + 1) // " fields (id,q1..q" // int_str(n) // ",p1..p" // &
+                        int_str(n) // "), optionally followed by h and T; got " // int_str(width))
                     return
                 end if
             end if
             if (size(fields) /= width) then
-                call fail(i, "expected " // int_str(width) // " fields like the " // &
-                    trim(merge("header   ", "first row", header)) // "; got " // &
-                    int_str(size(fields)))
+                call line_failure(status, path, i, "expected " // int_str(width) // &
+                    " fields like the " // trim(merge("header   ", "first row", header)) // &
+                    "; got " // int_str(size(fields)))
                 return
             end if
             rows = rows + 1
             line_of(rows) = i
-            if (first_data == 0) first_data = i
         end do
+        line_of = line_of(:rows)
+    end subroutine locate_state_rows
+
+    !> Whether a states file's header names the columns id,q1..qn,p1..pn[,h][,T].
+    logical function header_matches(names, n)
+        type(text_line_t), intent(in) :: names(:) !! the header's fields
+        integer, intent(in) :: n                  !! coordinates of the system
+        integer :: c
+        header_matches = size(names) >= 2 * n + 1 .and. size(names) <= 2 * n + 3
+        if (.not. header_matches) return
+        do c = 1, n
+            header_matches = header_matches .and. names(c + 1)%text == "q" // int_str(c) &
+                .and. names(c + n + 1)%text == "p" // int_str(c)
+        end do
+        if (size(names) >= 2 * n + 2) header_matches = header_matches .and. &
+            names(2 * n + 2)%text == "h"
+        if (size(names) >= 2 * n + 3) header_matches = header_matches .and. &
+            names(2 * n + 3)%text == "T"
+    end function header_matches
+
+    !> The states of the data rows (`width` fields each): an integer id, finite q and p,
+    !! h > 0 and T >= 0 when present. Fails with HOLOSYM_INVALID_ARGUMENT naming the line
+    !! and the field.
+    subroutine parse_state_rows(path, n, lines, line_of, width, read, status)
+        character(len=*), intent(in) :: path          !! the file, for messages
+        integer, intent(in) :: n                      !! coordinates of the system
+        type(text_line_t), intent(in) :: lines(:)     !! the file's lines
+        integer, intent(in) :: line_of(:)             !! line of each data row
+        integer, intent(in) :: width                  !! fields of every row
+        type(ensemble_states_t), intent(out) :: read  !! the states
+        type(holosym_status_t), intent(out) :: status !! outcome
+        type(text_line_t), allocatable :: fields(:)
+        integer :: ios, i, j, k, rows
+
+        call set_status(status, HOLOSYM_SUCCESS, "")
+        rows = size(line_of)
         allocate (read%id(rows), read%q(n, rows), read%p(n, rows))
         if (width >= 2 * n + 2) allocate (read%step_size(rows))
         if (width >= 2 * n + 3) allocate (read%final_time(rows))
@@ -168,8 +225,9 @@ contains
             i = line_of(k)
             call parse_csv_fields(lines(i)%text, fields, ios)
             if (.not. integer_field(fields(1)%text, read%id(k))) then
-                call fail(i, "field 1 (id) must be an integer from " // int_str(-max_id) // &
-                    " to " // int_str(max_id) // "; got '" // printable(fields(1)%text) // "'")
+                call line_failure(status, path, i, "field 1 (id) must be an integer from " // &
+                    int_str(-max_id) // " to " // int_str(max_id) // "; got '" // &
+                    printable(fields(1)%text) // "'")
                 return
             end if
             do j = 2, width
@@ -180,70 +238,70 @@ contains
                 else if (j == 2 * n + 2) then
                     if (.not. real_field(j, read%step_size(k))) return
                     if (.not. read%step_size(k) > 0) then
-                        call fail(i, "field " // int_str(j) // " (h) must be > 0; got '" // &
-                            printable(fields(j)%text) // "'")
+                        call bound_failure("h", "> 0")
                         return
                     end if
                 else
                     if (.not. real_field(j, read%final_time(k))) return
                     if (.not. read%final_time(k) >= 0) then
-                        call fail(i, "field " // int_str(j) // " (T) must be >= 0; got '" // &
-                            printable(fields(j)%text) // "'")
+                        call bound_failure("T", ">= 0")
                         return
                     end if
                 end if
             end do
         end do
-        order = sorted_order(read%id)
-        do k = 2, rows
-            if (read%id(order(k)) == read%id(order(k - 1))) then
-                call fail(line_of(max(order(k), order(k - 1))), "duplicate id " // &
-                    int_str(read%id(order(k))) // " (also on line " // &
+
+    contains
+
+        !> Field `column` of the current row as a finite real, or a failure naming it.
+        logical function real_field(column, value) result(ok)
+            integer, intent(in) :: column !! the field
+            real(wp), intent(out) :: value !! its value
+            ok = decimal_field(fields(column)%text, value)
+            if (.not. ok) call line_failure(status, path, i, "field " // int_str(column) // &
+                " must be a finite number; got '" // printable(fields(column)%text) // "'")
+        end function real_field
+
+        !> Field j of the current row (h or T) out of its range.
+        subroutine bound_failure(name, bound)
+            character(len=*), intent(in) :: name  !! the column's name
+            character(len=*), intent(in) :: bound !! what it must be
+            call line_failure(status, path, i, "field " // int_str(j) // " (" // name // &
+                ") must be " // bound // "; got '" // printable(fields(j)%text) // "'")
+        end subroutine bound_failure
+
+    end subroutine parse_state_rows
+
+    !> Every id of a states file its own: a duplicate fails with HOLOSYM_INVALID_ARGUMENT
+    !! on the later of its lines, naming the earlier.
+    subroutine check_unique_ids(path, ids, line_of, status)
+        character(len=*), intent(in) :: path          !! the file, for messages
+        integer, intent(in) :: ids(:)                 !! the ids, one per data row
+        integer, intent(in) :: line_of(:)             !! line of each data row
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer, allocatable :: order(:)
+        integer :: k
+        call set_status(status, HOLOSYM_SUCCESS, "")
+        order = sorted_order(ids)
+        do k = 2, size(ids)
+            if (ids(order(k)) == ids(order(k - 1))) then
+                call line_failure(status, path, line_of(max(order(k), order(k - 1))), &
+                    "duplicate id " // int_str(ids(order(k))) // " (also on line " // &
                     int_str(line_of(min(order(k), order(k - 1)))) // ")")
                 return
             end if
         end do
-        if (rows == 0) then
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, path // ": no states")
-            return
-        end if
-        states = read
-        call set_status(status, HOLOSYM_SUCCESS, "")
+    end subroutine check_unique_ids
 
-    contains
-
-        subroutine fail(line, what)
-            integer, intent(in) :: line
-            character(len=*), intent(in) :: what
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, path // ":" // int_str(line) // &
-                ": " // what)
-        end subroutine fail
-
-        logical function header_matches(names)
-            type(text_line_t), intent(in) :: names(:)
-            integer :: c
-            header_matches = size(names) >= 2 * n + 1 .and. size(names) <= 2 * n + 3
-            if (.not. header_matches) return
-            do c = 1, n
-                header_matches = header_matches .and. names(c + 1)%text == "q" // int_str(c) &
-                    .and. names(c + n + 1)%text == "p" // int_str(c)
-            end do
-            if (size(names) >= 2 * n + 2) header_matches = header_matches .and. &
-                names(2 * n + 2)%text == "h"
-            if (size(names) >= 2 * n + 3) header_matches = header_matches .and. &
-                names(2 * n + 3)%text == "T"
-        end function header_matches
-
-        !> Field j of row k as a finite real, or a failure naming it.
-        logical function real_field(column, value) result(ok)
-            integer, intent(in) :: column
-            real(wp), intent(out) :: value
-            ok = decimal_field(fields(column)%text, value)
-            if (.not. ok) call fail(i, "field " // int_str(column) // " must be a finite " // &
-                "number; got '" // printable(fields(column)%text) // "'")
-        end function real_field
-
-    end subroutine read_ensemble_states
+    !> HOLOSYM_INVALID_ARGUMENT with the message "FILE:LINE: what".
+    pure subroutine line_failure(status, path, line, what)
+        type(holosym_status_t), intent(inout) :: status !! set
+        character(len=*), intent(in) :: path            !! the file
+        integer, intent(in) :: line                     !! the line
+        character(len=*), intent(in) :: what            !! what is wrong
+        call set_status(status, HOLOSYM_INVALID_ARGUMENT, path // ":" // int_str(line) // &
+            ": " // what)
+    end subroutine line_failure
 
     !> Blank lines and comments ('#' first) of a states file.
     pure logical function ignorable(line)

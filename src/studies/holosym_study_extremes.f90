@@ -10,7 +10,10 @@
 !! built from those functions alone, so it conserves L_z exactly (discrete Noether theorem):
 !! any change of L_z is round-off, at every step size. That makes L_z the measure of how
 !! round-off accumulates with the step count.
-module holosym_extremes
+!!
+!! A library module so that the `holosym extremes` command and the tests run the same
+!! studies. Internal: no stability promise.
+module holosym_study_extremes
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
@@ -25,7 +28,7 @@ module holosym_extremes
     use holosym_scheme, only: discrete_scheme
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default
     use holosym_projection, only: project_to_manifold
-    use holosym_systems, only: make_system
+    use holosym_study_systems, only: make_system
     implicit none
     private
 
@@ -38,7 +41,8 @@ module holosym_extremes
     public :: stiff_cell_t, run_stiff_study
     public :: near_singular_cell_t, run_near_singular_study
     public :: fitted_exponent, pendulum_angular_momentum
-    public :: gauss_rule_error, lobatto_rule_error, basis_error
+    public :: gauss_rule_error, lobatto_rule_error, basis_error, jacobian_conditioning
+    public :: run_monitor, monitor_start, search_largest_step
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
 
@@ -216,29 +220,34 @@ module holosym_extremes
 
     !> Observer collecting the maxima and block statistics of a run.
     type, extends(step_observer) :: run_monitor
-        class(constrained_hamiltonian), allocatable :: sys
-        real(wp) :: energy0 = 0, energy_scale = 1, lz0 = 0
-        logical :: track_lz = .false.
-        integer :: window = 0
-        real(wp) :: energy_window = 0, energy_max = 0, constraint_max = 0, velocity_max = 0
-        real(wp) :: lambda_max = 0, pivot_min = huge(1.0_wp)
-        integer :: iterations = 0, steps = 0
-        integer, allocatable :: block_end(:)
-        real(wp), allocatable :: block_energy(:), block_lz2(:)
-        integer, allocatable :: block_count(:)
-        integer :: block = 1
-        integer :: progress_unit = -1, progress_every = 0
-        character(len=:), allocatable :: label
+        class(constrained_hamiltonian), allocatable :: sys !! the system, for H
+        real(wp) :: energy0 = 0        !! H at the start
+        real(wp) :: energy_scale = 1   !! |H0|, or 1 when H0 = 0
+        real(wp) :: lz0 = 0            !! L_z at the start (with `track_lz`)
+        logical :: track_lz = .false.  !! record L_z (spherical pendulum)
+        integer :: window = 0          !! early window of the drift ratio (steps)
+        real(wp) :: energy_window = 0  !! max relative energy error in the window
+        real(wp) :: energy_max = 0     !! max relative energy error
+        real(wp) :: constraint_max = 0 !! max |phi| at the displacement nodes
+        real(wp) :: velocity_max = 0   !! max |Phi H_p| at the step ends
+        real(wp) :: lambda_max = 0     !! max |lambda|
+        real(wp) :: pivot_min = huge(1.0_wp) !! smallest Newton pivot ratio
+        integer :: iterations = 0      !! Newton iterations of the run
+        integer :: steps = 0           !! steps recorded
+        integer, allocatable :: block_end(:)     !! last step of each block
+        real(wp), allocatable :: block_energy(:) !! max relative energy error per block
+        real(wp), allocatable :: block_lz2(:)    !! sum of squared L_z changes per block
+        integer, allocatable :: block_count(:)   !! steps per block
+        integer :: block = 1                     !! the current block
+        integer :: progress_unit = -1            !! unit of progress lines (-1: none)
+        integer :: progress_every = 0            !! steps between progress lines (0: none)
+        character(len=:), allocatable :: label   !! start of each progress line
+        !> L_z - L_z(0) after each step, with `track_lz` and when allocated by the caller
+        !! (one entry per step; steps beyond its size are not recorded).
+        real(wp), allocatable :: lz_error(:)
     contains
         procedure :: observe => monitor_observe
     end type run_monitor
-
-    interface
-        !> Does nothing. Its body, in the submodule at the end of this file, keeps this
-        !! application module out of `fpm install` (see fpm.toml).
-        module subroutine not_installed()
-        end subroutine not_installed
-    end interface
 
 contains
 
@@ -317,7 +326,8 @@ contains
 
     !> Block ends factor, factor**2, ... below `steps`, then `steps`.
     pure function geometric_blocks(steps, factor) result(ends)
-        integer, intent(in) :: steps, factor
+        integer, intent(in) :: steps  !! steps of the run
+        integer, intent(in) :: factor !! growth factor of the blocks
         integer, allocatable :: ends(:)
         integer :: last
         allocate (ends(0))
@@ -333,7 +343,7 @@ contains
 
     !> Mean step of block k: (start + end) / 2, where a random walk's mean square is taken.
     pure function block_centres(ends) result(centres)
-        integer, intent(in) :: ends(:)
+        integer, intent(in) :: ends(:) !! last step of each block
         real(wp) :: centres(size(ends))
         integer :: k, start
         start = 0
@@ -343,14 +353,16 @@ contains
         end do
     end function block_centres
 
-    !> Set up a monitor for a run of `steps` from (q, p).
+    !> Set up a monitor for a run of `steps` from (q, p), with blocks growing by `factor`.
     subroutine monitor_start(monitor, sys, q, p, steps, factor, track_lz, window)
-        type(run_monitor), intent(out) :: monitor
-        class(constrained_hamiltonian), intent(in) :: sys
-        real(wp), intent(in) :: q(:), p(:)
-        integer, intent(in) :: steps, factor
-        logical, intent(in) :: track_lz
-        integer, intent(in) :: window
+        type(run_monitor), intent(out) :: monitor        !! the monitor
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q(:)                      !! start coordinates
+        real(wp), intent(in) :: p(:)                      !! start momenta
+        integer, intent(in) :: steps                      !! steps of the run
+        integer, intent(in) :: factor                     !! growth factor of the blocks
+        logical, intent(in) :: track_lz                   !! record L_z (spherical pendulum)
+        integer, intent(in) :: window                     !! early window of the drift ratio
         allocate (monitor%sys, source=sys)
         monitor%energy0 = sys%hamiltonian(q, p)
         monitor%energy_scale = abs(monitor%energy0)
@@ -370,13 +382,13 @@ contains
 
     !> Record one step.
     subroutine monitor_observe(self, step, t, q, p, info, halt)
-        class(run_monitor), intent(inout) :: self
-        integer, intent(in) :: step
-        real(wp), intent(in) :: t
-        real(wp), intent(in) :: q(:)
-        real(wp), intent(in) :: p(:)
-        type(step_info_t), intent(in) :: info
-        logical, intent(inout) :: halt
+        class(run_monitor), intent(inout) :: self !! the monitor
+        integer, intent(in) :: step           !! step number
+        real(wp), intent(in) :: t             !! time
+        real(wp), intent(in) :: q(:)          !! coordinates after the step
+        real(wp), intent(in) :: p(:)          !! momenta after the step
+        type(step_info_t), intent(in) :: info !! diagnostics of the step
+        logical, intent(inout) :: halt        !! not set
         real(wp) :: energy_error, lz_error
         energy_error = abs(self%sys%hamiltonian(q, p) - self%energy0) / self%energy_scale
         self%steps = step
@@ -394,12 +406,15 @@ contains
             if (step <= self%block_end(self%block)) exit
             self%block = self%block + 1
         end do
+        lz_error = 0
+        if (self%track_lz) lz_error = pendulum_angular_momentum(q, p) - self%lz0
+        if (self%track_lz .and. allocated(self%lz_error)) then
+            if (step <= size(self%lz_error)) self%lz_error(step) = lz_error
+        end if
         if (size(self%block_end) > 0) then
             self%block_energy(self%block) = max(self%block_energy(self%block), energy_error)
-            if (self%track_lz) then
-                lz_error = pendulum_angular_momentum(q, p) - self%lz0
-                self%block_lz2(self%block) = self%block_lz2(self%block) + lz_error**2
-            end if
+            if (self%track_lz) self%block_lz2(self%block) = self%block_lz2(self%block) + &
+                lz_error**2
             self%block_count(self%block) = self%block_count(self%block) + 1
         end if
         if (self%progress_unit >= 0 .and. self%progress_every > 0) then
@@ -413,7 +428,7 @@ contains
 
     !> Wall-clock seconds since `start` (a system_clock count).
     real(wp) function seconds_since(start)
-        integer(int64), intent(in) :: start
+        integer(int64), intent(in) :: start !! a system_clock count
         integer(int64) :: now, rate
         call system_clock(now, rate)
         seconds_since = real(now - start, wp) / rate
@@ -426,8 +441,8 @@ contains
 
     !> Write a progress line when a unit is given.
     subroutine progress(unit, text)
-        integer, intent(in), optional :: unit
-        character(len=*), intent(in) :: text
+        integer, intent(in), optional :: unit !! the unit of progress lines
+        character(len=*), intent(in) :: text  !! the line, after "extremes: "
         if (present(unit)) then
             write (unit, '(a)') "extremes: " // text
             flush (unit)
@@ -490,7 +505,7 @@ contains
 
     !> Block centres used by the growth fits (blocks ending at or after fit_first_block_end).
     pure function fit_points(ends) result(points)
-        integer, intent(in) :: ends(:)
+        integer, intent(in) :: ends(:) !! last step of each block
         real(wp) :: points(size(ends))
         points = block_centres(ends)
         where (ends < fit_first_block_end) points = 0
@@ -498,8 +513,8 @@ contains
 
     !> Values matching `fit_points` (0, i.e. skipped, for the early blocks).
     pure function fit_values(ends, values) result(used)
-        integer, intent(in) :: ends(:)
-        real(wp), intent(in) :: values(:)
+        integer, intent(in) :: ends(:)    !! last step of each block
+        real(wp), intent(in) :: values(:) !! one value per block
         real(wp) :: used(size(values))
         used = values
         where (ends < fit_first_block_end) used = 0
@@ -597,7 +612,7 @@ contains
 
         !> Fitted growth exponent of an RMS column over the blocks.
         real(wp) function growth_exponent(rms)
-            real(wp), intent(in) :: rms(:)
+            real(wp), intent(in) :: rms(:) !! one RMS value per block
             growth_exponent = fitted_exponent(fit_points(result%block_end), &
                                               fit_values(result%block_end, rms))
         end function growth_exponent
@@ -678,11 +693,15 @@ contains
     !> `steps` steps with (M, M - 1, M + 1) and step h through `integrate`: q at the end and
     !! the max relative energy error.
     subroutine fixed_run(sys, q0, p0, order_m, h, steps, q_end, energy_error, status, general)
-        class(constrained_hamiltonian), intent(in), target :: sys
-        real(wp), intent(in) :: q0(:), p0(:), h
-        integer, intent(in) :: order_m, steps
-        real(wp), intent(out) :: q_end(:), energy_error
-        type(holosym_status_t), intent(out) :: status
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(in) :: q0(:)          !! start coordinates
+        real(wp), intent(in) :: p0(:)          !! start momenta
+        integer, intent(in) :: order_m         !! M (N = M - 1, G = M + 1)
+        real(wp), intent(in) :: h              !! step size
+        integer, intent(in) :: steps           !! number of steps
+        real(wp), intent(out) :: q_end(:)      !! q after the run
+        real(wp), intent(out) :: energy_error  !! max relative energy error
+        type(holosym_status_t), intent(out) :: status !! outcome
         !> Use the general scheme (momenta as unknowns) even where the reduced step applies.
         logical, intent(in), optional :: general
         type(constrained_integrator) :: integrator
@@ -747,10 +766,13 @@ contains
 
     !> One row of the high-order study.
     subroutine high_order_row(sys, q0, p0, order_m, step_sizes, span, row, max_steps)
-        type(spherical_pendulum), intent(in), target :: sys
-        real(wp), intent(in) :: q0(:), p0(:), step_sizes(:), span
-        integer, intent(in) :: order_m
-        type(high_order_row_t), intent(out) :: row
+        type(spherical_pendulum), intent(in), target :: sys !! the pendulum
+        real(wp), intent(in) :: q0(:)          !! start coordinates
+        real(wp), intent(in) :: p0(:)          !! start momenta
+        integer, intent(in) :: order_m         !! M (N = M - 1, G = M + 1)
+        real(wp), intent(in) :: step_sizes(:)  !! step sizes, largest first
+        real(wp), intent(in) :: span           !! time span of each run
+        type(high_order_row_t), intent(out) :: row !! the row
         type(holosym_status_t) :: local
         real(wp) :: q_end(3)
         integer, intent(in) :: max_steps !! most steps of a run
@@ -844,11 +866,15 @@ contains
     !! ||J|| ||J^-1|| of the row-equilibrated matrix (the matrix Newton factors).
     subroutine jacobian_conditioning(sys, q0, p0, order_m, h, pivot_ratio, condition, &
                                      iterations, code)
-        class(constrained_hamiltonian), intent(in), target :: sys
-        real(wp), intent(in) :: q0(:), p0(:), h
-        integer, intent(in) :: order_m
-        real(wp), intent(out) :: pivot_ratio, condition
-        integer, intent(out) :: iterations, code
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(in) :: q0(:)          !! start coordinates
+        real(wp), intent(in) :: p0(:)          !! start momenta
+        integer, intent(in) :: order_m         !! M (N = M - 1, G = M + 1)
+        real(wp), intent(in) :: h              !! step size
+        real(wp), intent(out) :: pivot_ratio   !! smallest relative pivot
+        real(wp), intent(out) :: condition     !! ||J||_1 ||J^-1||_1 (huge when singular)
+        integer, intent(out) :: iterations     !! Newton iterations of the solve
+        integer, intent(out) :: code           !! status code of the solve
         type(discrete_scheme) :: scheme
         type(newton_settings_t) :: settings
         type(newton_report_t) :: report
@@ -930,9 +956,9 @@ contains
 
     !> One cell of the large-step study.
     subroutine large_step_cell(system, order_m, cell, max_steps)
-        character(len=*), intent(in) :: system
-        integer, intent(in) :: order_m
-        type(large_step_cell_t), intent(out) :: cell
+        character(len=*), intent(in) :: system !! a system name
+        integer, intent(in) :: order_m         !! M (N = M - 1, G = M + 1)
+        type(large_step_cell_t), intent(out) :: cell !! the cell
         integer, intent(in) :: max_steps !! most steps of a run
         class(constrained_hamiltonian), allocatable :: sys
         real(wp), allocatable :: q0(:), p0(:)
@@ -976,14 +1002,17 @@ contains
     !! with the failure's status, steps done and cleanliness.
     subroutine search_largest_step(sys, q0, p0, order_m, run, h_good, h_bad, bad_status, &
                                    bad_steps, bad_clean, hit_cap, max_steps)
-        class(constrained_hamiltonian), intent(in), target :: sys
-        real(wp), intent(in) :: q0(:), p0(:)
-        integer, intent(in) :: order_m
-        logical, intent(in) :: run
-        real(wp), intent(out) :: h_good, h_bad
-        type(holosym_status_t), intent(out) :: bad_status
-        integer, intent(out) :: bad_steps
-        logical, intent(out) :: bad_clean, hit_cap
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(in) :: q0(:)          !! start coordinates
+        real(wp), intent(in) :: p0(:)          !! start momenta
+        integer, intent(in) :: order_m         !! M (N = M - 1, G = M + 1)
+        logical, intent(in) :: run             !! runs over T = 10, else first steps
+        real(wp), intent(out) :: h_good        !! largest h found to succeed (0: none)
+        real(wp), intent(out) :: h_bad         !! failing h above it (0: none)
+        type(holosym_status_t), intent(out) :: bad_status !! failure at h_bad
+        integer, intent(out) :: bad_steps      !! steps done at h_bad
+        logical, intent(out) :: bad_clean      !! whether that failure is clean
+        logical, intent(out) :: hit_cap        !! h reached the cap of the search
         integer, intent(in) :: max_steps !! most steps of a run
         type(holosym_status_t) :: local
         real(wp) :: h, energy
@@ -1047,15 +1076,16 @@ contains
     !> One first step (run = .false.) or one run over T = 10 at step h, from (q0, p0).
     subroutine large_step_trial(sys, q0, p0, order_m, run, h, local, done, clean_failure, &
                                 energy, max_steps)
-        class(constrained_hamiltonian), intent(in), target :: sys
-        real(wp), intent(in) :: q0(:), p0(:)
-        integer, intent(in) :: order_m
-        logical, intent(in) :: run
-        real(wp), intent(in) :: h
-        type(holosym_status_t), intent(out) :: local
-        integer, intent(out) :: done
-        logical, intent(out) :: clean_failure
-        real(wp), intent(out) :: energy
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(in) :: q0(:)          !! start coordinates
+        real(wp), intent(in) :: p0(:)          !! start momenta
+        integer, intent(in) :: order_m         !! M (N = M - 1, G = M + 1)
+        logical, intent(in) :: run             !! a run over T = 10, else one step
+        real(wp), intent(in) :: h              !! step size
+        type(holosym_status_t), intent(out) :: local !! outcome
+        integer, intent(out) :: done           !! steps done
+        logical, intent(out) :: clean_failure  !! a clean failure
+        real(wp), intent(out) :: energy        !! max relative energy error of a run
         integer, intent(in) :: max_steps !! most steps of a run
         type(constrained_integrator) :: integrator
         type(run_monitor) :: monitor
@@ -1142,9 +1172,9 @@ contains
 
     !> One run of the stiff study.
     subroutine stiff_cell(periods, cell, max_steps)
-        real(wp), intent(in) :: periods
-        type(stiff_cell_t), intent(inout) :: cell
-        integer, intent(in) :: max_steps
+        real(wp), intent(in) :: periods           !! spring periods of the run
+        type(stiff_cell_t), intent(inout) :: cell !! k, M and omega h in, measurements out
+        integer, intent(in) :: max_steps          !! most steps of a run
         type(spring_linkage), target :: sys
         type(constrained_integrator) :: integrator
         type(run_monitor) :: monitor
@@ -1224,12 +1254,4 @@ contains
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine run_near_singular_study
 
-end module holosym_extremes
-
-!> Holds `not_installed`: fpm installs no module of a source with a submodule.
-submodule (holosym_extremes) holosym_extremes_app
-    implicit none
-contains
-    module procedure not_installed
-    end procedure not_installed
-end submodule holosym_extremes_app
+end module holosym_study_extremes
