@@ -10,6 +10,7 @@ submodule (holosym_integrator) holosym_step_solution
         HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED
     use holosym_newton, only: newton_report_t, newton_solve, all_finite, stagnation_floor, &
         LINEAR_SOLVER_NATIVE
+    use holosym_scheme, only: scheme_counters_t
     use holosym_manifold, only: manifold_residuals
     use holosym_reduced_step, only: reduced_report_t
     implicit none
@@ -156,15 +157,12 @@ contains
         type(holosym_status_t), intent(out) :: status
         real(wp) :: scale, end_velocity_residual
         type(newton_report_t) :: report
+        type(scheme_counters_t) :: counters0
         logical :: extrapolated, from_extrapolation
         integer :: iterations, factorizations
-        integer(int64) :: residuals0, gradients0, hessians0, lowered0
 
         status%code = HOLOSYM_SUCCESS
-        residuals0 = self%scheme%counters%residuals
-        gradients0 = self%scheme%counters%gradients
-        hessians0 = self%scheme%counters%hessians
-        lowered0 = self%scheme%counters%lowered_residuals
+        counters0 = self%scheme%counters
         call self%scheme%set_step(sys, q, p, h)
         extrapolated = .false.
         if (self%extrapolate .and. extrapolation) extrapolated = &
@@ -189,10 +187,7 @@ contains
             ! The next steps use the chosen linear solver again.
             self%workspace%linear_solver = self%applied_modes(1)
         end if
-        self%stats%newton_iterations = self%stats%newton_iterations + iterations
-        self%stats%lu_factorizations = self%stats%lu_factorizations + factorizations
-        self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + factorizations
-        call count_evaluations()
+        call count_general_work(self, counters0, iterations, factorizations)
         if (.not. status%ok()) then
             status%message = trim(step_label(self, h)) // ": " // status%message
             return
@@ -202,7 +197,8 @@ contains
         self%pending%iterations = iterations
         self%pending%factorizations = factorizations
         self%pending%pivot_ratio = report%pivot_ratio
-        ! Hidden constraint at the step end, max |Phi(q_b) H_p(q_b, p_b)| (check_end_state).
+        ! Hidden constraint at the step end, max |Phi(q_b) H_p(q_b, p_b)|
+        ! (check_general_end_state).
         self%pending%velocity = end_velocity_residual
 
     contains
@@ -230,7 +226,7 @@ contains
                     "non-finite state (overflow)")
                 return
             end if
-            call check_end_state(status)
+            call check_general_end_state(self, sys, q, p, end_velocity_residual, status)
         end subroutine solve_with_retries
 
         !> x_work = the previous step's polynomials extrapolated, or the constant guess.
@@ -255,43 +251,57 @@ contains
                 call record_dependent_nodes(self, sys, q, .true.)
         end subroutine attempt
 
-        !> A Newton iteration that stopped far from a solution (e.g. at an absurd h, where
-        !! the relative test is met by huge iterates) leaves the end state off the
-        !! constraint manifold: fail the solve when a scaled residual exceeds
-        !! `end_state_tolerance` (loose: nearly dependent constraints legitimately end
-        !! steps some orders above epsilon).
-        subroutine check_end_state(status)
-            type(holosym_status_t), intent(inout) :: status
-            real(wp) :: position, velocity, scaled_position, scaled_velocity
-            self%q_end_work = q + self%dq_work
-            self%p_end_work = p + self%dp_work
-            call manifold_residuals(sys, self%q_end_work, self%p_end_work, position, &
-                                    velocity, scaled_position, scaled_velocity, self%hp_work)
-            self%scheme%counters%gradients = self%scheme%counters%gradients + 1
-            end_velocity_residual = velocity
-            call end_state_status(position, velocity, scaled_position, scaled_velocity, &
-                                  end_tolerance(self), status)
-        end subroutine check_end_state
-
-        !> Evaluations of this attempt from the scheme's counters.
-        subroutine count_evaluations()
-            integer(int64) :: residuals, gradients, hessians, lowered
-            residuals = self%scheme%counters%residuals - residuals0
-            gradients = self%scheme%counters%gradients - gradients0
-            hessians = self%scheme%counters%hessians - hessians0
-            lowered = self%scheme%counters%lowered_residuals - lowered0
-            self%pending%lowered = int(lowered)
-            self%stats%lowered_residual_evaluations = self%stats%lowered_residual_evaluations &
-                + lowered
-            self%pending%residuals = int(residuals)
-            self%pending%gradients = int(gradients)
-            self%pending%hessians = int(hessians)
-            self%stats%residual_evaluations = self%stats%residual_evaluations + residuals
-            self%stats%gradient_evaluations = self%stats%gradient_evaluations + gradients
-            self%stats%hessian_evaluations = self%stats%hessian_evaluations + hessians
-        end subroutine count_evaluations
-
     end subroutine solve_general
+
+    !> A Newton iteration that stopped far from a solution (e.g. at an absurd h, where the
+    !! relative test is met by huge iterates) leaves the end state off the constraint
+    !! manifold: fail the general scheme's solve when a scaled residual of the end state
+    !! (q + dq_work, p + dp_work) exceeds `end_state_tolerance` (loose: nearly dependent
+    !! constraints legitimately end steps some orders above epsilon). H_p at the end state
+    !! is left in hp_work.
+    subroutine check_general_end_state(self, sys, q, p, end_velocity, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q(:), p(:) !! start state of the step
+        real(wp), intent(out) :: end_velocity !! max |Phi H_p| at the end state
+        type(holosym_status_t), intent(inout) :: status !! outcome of the solve
+        real(wp) :: position, velocity, scaled_position, scaled_velocity
+        self%q_end_work = q + self%dq_work
+        self%p_end_work = p + self%dp_work
+        call manifold_residuals(sys, self%q_end_work, self%p_end_work, position, &
+                                velocity, scaled_position, scaled_velocity, self%hp_work)
+        self%scheme%counters%gradients = self%scheme%counters%gradients + 1
+        end_velocity = velocity
+        call end_state_status(position, velocity, scaled_position, scaled_velocity, &
+                              end_tolerance(self), status)
+    end subroutine check_general_end_state
+
+    !> The work of the general scheme's solve into `stats` and `pending`: Newton iterations
+    !! and factorisations as counted by the solve, evaluations as the scheme's counters
+    !! grew since `start`.
+    subroutine count_general_work(self, start, iterations, factorizations)
+        class(constrained_integrator), intent(inout) :: self
+        type(scheme_counters_t), intent(in) :: start !! the scheme's counters before the solve
+        integer, intent(in) :: iterations     !! Newton iterations of the solve
+        integer, intent(in) :: factorizations !! LU factorisations of the solve
+        integer(int64) :: residuals, gradients, hessians, lowered
+        self%stats%newton_iterations = self%stats%newton_iterations + iterations
+        self%stats%lu_factorizations = self%stats%lu_factorizations + factorizations
+        self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + factorizations
+        residuals = self%scheme%counters%residuals - start%residuals
+        gradients = self%scheme%counters%gradients - start%gradients
+        hessians = self%scheme%counters%hessians - start%hessians
+        lowered = self%scheme%counters%lowered_residuals - start%lowered_residuals
+        self%pending%lowered = int(lowered)
+        self%stats%lowered_residual_evaluations = self%stats%lowered_residual_evaluations &
+            + lowered
+        self%pending%residuals = int(residuals)
+        self%pending%gradients = int(gradients)
+        self%pending%hessians = int(hessians)
+        self%stats%residual_evaluations = self%stats%residual_evaluations + residuals
+        self%stats%gradient_evaluations = self%stats%gradient_evaluations + gradients
+        self%stats%hessian_evaluations = self%stats%hessian_evaluations + hessians
+    end subroutine count_general_work
 
     !> The end-state test of a solved step: non-finite residuals (from the system's
     !! constraint or dh_dp at the end state) fail with HOLOSYM_NONFINITE_VALUE, scaled
