@@ -1,0 +1,133 @@
+!> category: internal submodule (use holosym)
+!! The settings of `constrained_integrator`: the check of their ranges before a step, their
+!! translation into the modes of the scheme and of the Newton workspace, Newton's settings
+!! of the plain path, and the end-state tolerance they imply.
+submodule (holosym_integrator) holosym_settings_checks
+    use holosym_newton, only: newton_settings_valid, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
+    use holosym_scheme, only: JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, &
+        HESSIANS_USER, HESSIANS_DIFFERENCES
+    implicit none
+
+    !> A step whose end state misses a constraint by more than this (scaled as in
+    !! manifold_residuals) has not converged: sqrt(epsilon).
+    real(wp), parameter :: end_state_tolerance = sqrt(epsilon(1.0_wp))
+    !> ... or this many times a looser Newton tolerance (`newton%tolerance`).
+    real(wp), parameter :: end_state_factor = 1024
+contains
+
+    !> Whether every setting of the integrator is in its range; `message` names the first
+    !! that is not: the Newton settings (`newton_settings_valid`), 0 < manifold_tolerance < 1
+    !! (finite) and the option strings.
+    module logical function settings_valid(self, message)
+        class(constrained_integrator), intent(in) :: self
+        character(len=:), allocatable, intent(out) :: message
+        if (newton_settings_valid(self%newton, message)) then
+            ! Finiteness first: a NaN in an ordered comparison raises 'invalid'.
+            if (.not. is_finite(self%manifold_tolerance)) then
+                message = "manifold_tolerance must be finite, got " // &
+                    real_str(self%manifold_tolerance)
+            else if (self%manifold_tolerance <= 0 .or. self%manifold_tolerance >= 1) then
+                message = "manifold_tolerance must be in (0, 1), got " // &
+                    real_str(self%manifold_tolerance)
+            end if
+        end if
+        if (len(message) == 0) then
+            select case (self%linear_solver)
+            case ("real128", "native", "mixed", "lapack")
+            case default
+                message = "linear_solver must be 'real128' or 'mixed'; got '" // &
+                    trim(self%linear_solver) // "'"
+            end select
+        end if
+        if (len(message) == 0) then
+            select case (self%jacobian)
+            case ("assembled", "residual-differences")
+            case default
+                message = "jacobian must be 'assembled' or 'residual-differences'; got '" // &
+                    trim(self%jacobian) // "'"
+            end select
+        end if
+        if (len(message) == 0) then
+            select case (self%hessians)
+            case ("user", "differences")
+            case default
+                message = "hessians must be 'user' or 'differences'; got '" // &
+                    trim(self%hessians) // "'"
+            end select
+        end if
+        settings_valid = len(message) == 0
+    end function settings_valid
+
+    !> Largest scaled constraint residual of an accepted end state: `end_state_tolerance`,
+    !! or `end_state_factor` times a looser Newton tolerance.
+    module pure real(wp) function end_tolerance(self)
+        class(constrained_integrator), intent(in) :: self
+        end_tolerance = max(end_state_tolerance, end_state_factor * self%newton%tolerance)
+    end function end_tolerance
+
+    !> Translate the option strings into the modes of the scheme and the Newton workspace.
+    !! Code HOLOSYM_INVALID_ARGUMENT names an unknown value.
+    module subroutine apply_options(self, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        real(wp), intent(in) :: h
+        type(holosym_status_t), intent(inout) :: status
+        integer :: modes(3)
+        select case (self%linear_solver)
+        case ("real128", "native")
+            modes(1) = LINEAR_SOLVER_NATIVE
+        case ("mixed", "lapack")
+            modes(1) = LINEAR_SOLVER_MIXED
+        case default
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "linear_solver must be " // &
+                "'real128' or 'mixed'; got '" // trim(self%linear_solver) // "'")
+            return
+        end select
+        select case (self%jacobian)
+        case ("assembled")
+            modes(2) = JACOBIAN_ASSEMBLED
+        case ("residual-differences")
+            modes(2) = JACOBIAN_RESIDUAL_DIFFERENCES
+        case default
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "jacobian must be " // &
+                "'assembled' or 'residual-differences'; got '" // trim(self%jacobian) // "'")
+            return
+        end select
+        select case (self%hessians)
+        case ("user")
+            modes(3) = HESSIANS_USER
+        case ("differences")
+            modes(3) = HESSIANS_DIFFERENCES
+        case default
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "hessians must be 'user' or " // &
+                "'differences'; got '" // trim(self%hessians) // "'")
+            return
+        end select
+        ! Kept factors belong to one step size and one way of forming the Jacobian.
+        if (any(modes /= self%applied_modes) .or. h /= self%workspace_h) then
+            call self%workspace%invalidate()
+            self%applied_modes = modes
+            self%workspace_h = h
+        end if
+        self%workspace%linear_solver = modes(1)
+        self%scheme%jacobian_mode = modes(2)
+        self%scheme%hessian_mode = modes(3)
+        self%scheme%linear_increments = self%linear_increments
+    end subroutine apply_options
+
+    !> True when any of the Newton speed options is in use.
+    module pure logical function fast_options(self)
+        class(constrained_integrator), intent(in) :: self
+        fast_options = self%newton%simplified .or. self%newton%presolve .or. &
+            (self%linear_solver /= "real128" .and. self%linear_solver /= "native")
+    end function fast_options
+
+    !> `settings` with the speed options of Newton's method off.
+    module pure function plain_settings(settings) result(plain)
+        type(newton_settings_t), intent(in) :: settings
+        type(newton_settings_t) :: plain
+        plain = settings
+        plain%simplified = .false.
+        plain%presolve = .false.
+    end function plain_settings
+
+end submodule holosym_settings_checks

@@ -1,0 +1,395 @@
+!> category: internal submodule (use holosym)
+!! One step of `constrained_integrator`: its Newton solve, without accepting it, by the
+!! reduced step when active (the general scheme its fallback for small systems), else by
+!! the general scheme, whose solve is retried with fresh factors, from the constant first
+!! guess and on the plain path (full Newton, working-precision LU) before it fails; the
+!! checks of the solution's end state and displacement nodes; the check of its root and
+!! its diagnosis on failure (`solve_step`); its acceptance (`commit_step`).
+submodule (holosym_integrator) holosym_step_solution
+    use holosym_status_codes, only: HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, &
+        HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED
+    use holosym_newton, only: newton_report_t, newton_solve, all_finite, stagnation_floor, &
+        LINEAR_SOLVER_NATIVE
+    use holosym_scheme, only: scheme_counters_t
+    use holosym_manifold, only: manifold_residuals
+    use holosym_reduced_step, only: reduced_report_t
+    implicit none
+
+contains
+
+    !> One step from (q, p), which stay unchanged: solve (`attempt_step`), check the root
+    !! (`energy_change`, `verify_root`) and accept it (`commit_step`: the increments in
+    !! self%dq_work, self%dp_work, the step's data in self%last_*). On failure the code
+    !! says why (`diagnose_failure`) and the last accepted step stays the last step.
+    module subroutine solve_step(self, sys, q, p, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        type(holosym_status_t), intent(out) :: status
+        self%dependent_nodes = ""
+        call attempt_step(self, sys, q, p, h, .true., status)
+        if (.not. status%ok()) then
+            call diagnose_failure(self, sys, q, p, h, status)
+            return
+        end if
+        if (self%check_roots) then
+            if (suspicious(self, sys, q, p, h)) then
+                call verify_root(self, sys, q, p, h, status)
+                return
+            end if
+            if (.not. self%pending%energy_finite) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, trim(step_label(self, h)) // &
+                    ": hamiltonian returned NaN or Inf at the start or the end of the step")
+                return
+            end if
+        end if
+        call commit_step(self, sys, q, p, h, .false.)
+    end subroutine solve_step
+
+    !> Solve the step from (q, p) without accepting it: the reduced step when active (the
+    !! general scheme its fallback for small systems), else the general scheme. With
+    !! `extrapolation` false both start from the constant first guess.
+    module subroutine attempt_step(self, sys, q, p, h, extrapolation, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        logical, intent(in) :: extrapolation
+        type(holosym_status_t), intent(out) :: status
+        character(len=:), allocatable :: reduced_message
+        if (.not. self%reduced_active) then
+            call solve_general(self, sys, q, p, h, extrapolation, status)
+        else
+            call solve_reduced(self, sys, q, p, h, extrapolation, status)
+            if (.not. (status%ok() .or. .not. self%general_ready .or. &
+                       status%code == HOLOSYM_NONFINITE_VALUE)) then
+                ! The reduced step factors its Newton matrix in real64 only: where that is
+                ! too ill-conditioned (nearly dependent constraints), the general step of a
+                ! small system has working-precision factors to fall back on (from the
+                ! constant guess).
+                reduced_message = status%message
+                call solve_general(self, sys, q, p, h, .false., status)
+                if (.not. status%ok()) &
+                    status%message = status%message // " (after the " // reduced_message // ")"
+            end if
+        end if
+        if (status%ok()) call node_residual(self, sys, q, h, status)
+    end subroutine attempt_step
+
+    !> max |phi| over the displacement nodes of the solved step, into `pending`; or
+    !! HOLOSYM_NONFINITE_VALUE when `constraint` returns NaN or Inf at one of them (found by
+    !! classification: no comparison with a NaN).
+    subroutine node_residual(self, sys, q, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), h
+        type(holosym_status_t), intent(inout) :: status
+        real(wp) :: phi(sys%m)
+        integer :: i
+        self%pending%position = 0
+        if (sys%m == 0) return
+        do i = 0, self%scheme%order_m
+            ! The node in p_end_work, free until `energy_change`.
+            if (self%pending%general) then
+                call self%scheme%solution_node(self%x_work, i, self%p_end_work)
+            else
+                self%p_end_work = q
+                if (i > 0) self%p_end_work = q + &
+                    self%reduced%x(self%reduced%scheme%layout%z_col(:, i))
+            end if
+            call sys%constraint(self%p_end_work, phi)
+            if (.not. all(is_finite(phi))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, trim(step_label(self, h)) // &
+                    ": constraint returned NaN or Inf at displacement node " // int_str(i) // &
+                    " of the solved step")
+                return
+            end if
+            self%pending%position = max(self%pending%position, maxval(abs(phi)))
+        end do
+    end subroutine node_residual
+
+    !> Accept the step solved by the last attempt (or restored by `restore_candidate`):
+    !! it becomes the last step (dense output, extrapolation, `last_step`). `rebind` binds
+    !! the general scheme to this step again (after other attempts).
+    module subroutine commit_step(self, sys, q, p, h, rebind)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        logical, intent(in) :: rebind
+        if (self%pending%general) then
+            if (rebind) call self%scheme%set_step(sys, q, p, h)
+            call self%scheme%node_values(self%x_work, self%last_info%lambda)
+            self%last_x = self%x_work
+        else
+            call self%reduced%accept(q, h)
+            call self%reduced%scheme%multipliers(self%reduced%last_x, h, self%last_info%lambda)
+        end if
+        self%last_general = self%pending%general
+        associate (info => self%last_info, pending => self%pending)
+            info%newton_iterations = pending%iterations
+            info%constraint_residual = pending%position
+            info%velocity_residual = pending%velocity
+            info%pivot_ratio = pending%pivot_ratio
+            info%lu_factorizations = pending%factorizations
+            info%residual_evaluations = pending%residuals
+            info%lowered_residual_evaluations = pending%lowered
+            info%gradient_evaluations = pending%gradients
+            info%hessian_evaluations = pending%hessians
+        end associate
+        self%last_qa = q
+        self%last_pa = p
+        self%last_h = h
+        self%last_qb = q + self%dq_work
+        self%last_pb = p + self%dp_work
+        self%last_energy = self%pending%energy
+        self%last_energy_known = self%pending%energy_known
+        self%have_last = .true.
+        self%stats%steps = self%stats%steps + 1
+    end subroutine commit_step
+
+    !> Solve the step by the general scheme (all unknowns, dense Newton), without accepting
+    !! it: the solution in x_work, the increments in dq_work, dp_work, its numbers in
+    !! `pending`. `extrapolation` allows the previous step's polynomials as first guess.
+    subroutine solve_general(self, sys, q, p, h, extrapolation, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        logical, intent(in) :: extrapolation
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: scale, end_velocity_residual
+        type(newton_report_t) :: report
+        type(scheme_counters_t) :: counters0
+        logical :: extrapolated, from_extrapolation
+        integer :: iterations, factorizations
+
+        status%code = HOLOSYM_SUCCESS
+        counters0 = self%scheme%counters
+        call self%scheme%set_step(sys, q, p, h)
+        extrapolated = .false.
+        if (self%extrapolate .and. extrapolation) extrapolated = &
+            continues_last_step(self, q, p) .and. self%last_general
+        call first_guess()
+        ! Increments are compared with the size of the state, not with themselves.
+        scale = max(maxval(abs(q)), maxval(abs(p)))
+        if (scale <= 0) scale = 1
+        iterations = 0
+        factorizations = 0
+        end_velocity_residual = 0
+        call solve_with_retries(self%newton)
+        if (.not. status%ok() .and. status%code /= HOLOSYM_NONFINITE_VALUE .and. &
+            fast_options(self)) then
+            ! The speed options are heuristics: before failing the step, the plain path
+            ! (full Newton, working-precision LU, no pre-solve) gets its chance.
+            call self%workspace%invalidate()
+            self%workspace%linear_solver = LINEAR_SOLVER_NATIVE
+            call first_guess()
+            call solve_with_retries(plain_settings(self%newton))
+            call self%workspace%invalidate()
+            ! The next steps use the chosen linear solver again.
+            self%workspace%linear_solver = self%applied_modes(1)
+        end if
+        call count_general_work(self, counters0, iterations, factorizations)
+        if (.not. status%ok()) then
+            status%message = trim(step_label(self, h)) // ": " // status%message
+            return
+        end if
+        self%pending%general = .true.
+        self%pending%extrapolated = from_extrapolation
+        self%pending%iterations = iterations
+        self%pending%factorizations = factorizations
+        self%pending%pivot_ratio = report%pivot_ratio
+        ! Hidden constraint at the step end, max |Phi(q_b) H_p(q_b, p_b)|
+        ! (check_general_end_state).
+        self%pending%velocity = end_velocity_residual
+
+    contains
+
+        !> Newton from x_work with `settings`; on failure retry with fresh factors (kept
+        !! ones may be stale) and from the constant guess (a poor extrapolation should
+        !! not fail the step). On success the step's increments are in dq_work, dp_work
+        !! and the end state is checked against the constraints.
+        subroutine solve_with_retries(settings)
+            type(newton_settings_t), intent(in) :: settings
+            call attempt(settings)
+            if (.not. status%ok() .and. report%reused_factors .and. &
+                status%code /= HOLOSYM_NONFINITE_VALUE) call attempt(settings)
+            if (.not. status%ok() .and. extrapolated .and. &
+                status%code /= HOLOSYM_NONFINITE_VALUE) then
+                call self%scheme%constant_guess(self%x_work)
+                from_extrapolation = .false.
+                call attempt(settings)
+            end if
+            if (.not. status%ok()) return
+            call self%scheme%increments(self%x_work, self%dq_work, self%dp_work, status)
+            if (.not. status%ok()) return
+            if (.not. (all_finite(self%dq_work) .and. all_finite(self%dp_work))) then
+                call set_status(status, HOLOSYM_NEWTON_DIVERGED, "step produced a " // &
+                    "non-finite state (overflow)")
+                return
+            end if
+            call check_general_end_state(self, sys, q, p, end_velocity_residual, status)
+        end subroutine solve_with_retries
+
+        !> x_work = the previous step's polynomials extrapolated, or the constant guess.
+        subroutine first_guess()
+            from_extrapolation = extrapolated
+            if (extrapolated) then
+                call self%scheme%extrapolated_guess(self%last_x, self%last_qa, self%last_pa, &
+                                                    self%last_h, q, p, h, self%x_work)
+            else
+                call self%scheme%constant_guess(self%x_work)
+            end if
+        end subroutine first_guess
+
+        !> One Newton solve from x_work, its work added to the step's.
+        subroutine attempt(settings)
+            type(newton_settings_t), intent(in) :: settings
+            call newton_solve(self%scheme, self%x_work, settings, scale, report, status, &
+                              self%workspace)
+            iterations = iterations + report%iterations
+            factorizations = factorizations + report%factorizations
+            if (status%code == HOLOSYM_SINGULAR_MATRIX) &
+                call record_dependent_nodes(self, sys, q, .true.)
+        end subroutine attempt
+
+    end subroutine solve_general
+
+    !> A Newton iteration that stopped far from a solution (e.g. at an absurd h, where the
+    !! relative test is met by huge iterates) leaves the end state off the constraint
+    !! manifold: fail the general scheme's solve when a scaled residual of the end state
+    !! (q + dq_work, p + dp_work) exceeds `end_state_tolerance` (loose: nearly dependent
+    !! constraints legitimately end steps some orders above epsilon). H_p at the end state
+    !! is left in hp_work.
+    subroutine check_general_end_state(self, sys, q, p, end_velocity, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q(:), p(:) !! start state of the step
+        real(wp), intent(out) :: end_velocity !! max |Phi H_p| at the end state
+        type(holosym_status_t), intent(inout) :: status !! outcome of the solve
+        real(wp) :: position, velocity, scaled_position, scaled_velocity
+        self%q_end_work = q + self%dq_work
+        self%p_end_work = p + self%dp_work
+        call manifold_residuals(sys, self%q_end_work, self%p_end_work, position, &
+                                velocity, scaled_position, scaled_velocity, self%hp_work)
+        self%scheme%counters%gradients = self%scheme%counters%gradients + 1
+        end_velocity = velocity
+        call end_state_status(position, velocity, scaled_position, scaled_velocity, &
+                              end_tolerance(self), status)
+    end subroutine check_general_end_state
+
+    !> The work of the general scheme's solve into `stats` and `pending`: Newton iterations
+    !! and factorisations as counted by the solve, evaluations as the scheme's counters
+    !! grew since `start`.
+    subroutine count_general_work(self, start, iterations, factorizations)
+        class(constrained_integrator), intent(inout) :: self
+        type(scheme_counters_t), intent(in) :: start !! the scheme's counters before the solve
+        integer, intent(in) :: iterations     !! Newton iterations of the solve
+        integer, intent(in) :: factorizations !! LU factorisations of the solve
+        integer(int64) :: residuals, gradients, hessians, lowered
+        self%stats%newton_iterations = self%stats%newton_iterations + iterations
+        self%stats%lu_factorizations = self%stats%lu_factorizations + factorizations
+        self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + factorizations
+        residuals = self%scheme%counters%residuals - start%residuals
+        gradients = self%scheme%counters%gradients - start%gradients
+        hessians = self%scheme%counters%hessians - start%hessians
+        lowered = self%scheme%counters%lowered_residuals - start%lowered_residuals
+        self%pending%lowered = int(lowered)
+        self%stats%lowered_residual_evaluations = self%stats%lowered_residual_evaluations &
+            + lowered
+        self%pending%residuals = int(residuals)
+        self%pending%gradients = int(gradients)
+        self%pending%hessians = int(hessians)
+        self%stats%residual_evaluations = self%stats%residual_evaluations + residuals
+        self%stats%gradient_evaluations = self%stats%gradient_evaluations + gradients
+        self%stats%hessian_evaluations = self%stats%hessian_evaluations + hessians
+    end subroutine count_general_work
+
+    !> The end-state test of a solved step: non-finite residuals (from the system's
+    !! constraint or dh_dp at the end state) fail with HOLOSYM_NONFINITE_VALUE, scaled
+    !! residuals above `end_state_tolerance` with HOLOSYM_NEWTON_NOT_CONVERGED.
+    subroutine end_state_status(position, velocity, scaled_position, scaled_velocity, &
+                                tolerance, status)
+        real(wp), intent(in) :: position, velocity, scaled_position, scaled_velocity
+        real(wp), intent(in) :: tolerance !! largest accepted scaled residual
+        type(holosym_status_t), intent(inout) :: status
+        if (.not. (is_finite(scaled_position) .and. is_finite(scaled_velocity))) then
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint, " // &
+                "constraint_jacobian or dh_dp returned NaN or Inf at the end state")
+        else if (scaled_position > tolerance .or. scaled_velocity > tolerance) then
+            call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton stopped at a " // &
+                "point off the constraints (end state max|phi| = " // real_str(position) // &
+                ", max|Phi H_p| = " // real_str(velocity) // ")")
+        end if
+    end subroutine end_state_status
+
+    !> Solve the step by the reduced step (momenta eliminated; `holosym_reduced_step`),
+    !! without accepting it: the solution in reduced%x, the increments in dq_work, dp_work,
+    !! its numbers in `pending`.
+    subroutine solve_reduced(self, sys, q, p, h, extrapolation, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        logical, intent(in) :: extrapolation
+        type(holosym_status_t), intent(out) :: status
+        type(reduced_report_t) :: report
+        real(wp) :: position, velocity, scaled_position, scaled_velocity
+        integer :: gradients0
+
+        gradients0 = self%reduced%scheme%gradients
+        call self%reduced%solve(sys, q, p, h, self%newton%tolerance, &
+            stagnation_floor(self%newton), self%newton%max_iterations, &
+            self%extrapolate .and. extrapolation .and. continues_last_step(self, q, p), &
+            self%dq_work, self%dp_work, report, status)
+        self%stats%newton_iterations = self%stats%newton_iterations + report%iterations
+        self%stats%lu_factorizations = self%stats%lu_factorizations + report%factorizations
+        self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + report%factorizations
+        self%stats%residual_evaluations = self%stats%residual_evaluations + report%residuals
+        self%stats%lowered_residual_evaluations = self%stats%lowered_residual_evaluations + &
+            report%lowered_residuals
+        self%stats%gradient_evaluations = self%stats%gradient_evaluations + &
+            (self%reduced%scheme%gradients - gradients0)
+        if (status%ok()) then
+            if (.not. (all_finite(self%dq_work) .and. all_finite(self%dp_work))) &
+                call set_status(status, HOLOSYM_NEWTON_DIVERGED, "step produced a " // &
+                "non-finite state (overflow)")
+        end if
+        if (status%ok()) then
+            self%q_end_work = q + self%dq_work
+            self%p_end_work = p + self%dp_work
+            call state_residuals(self, sys, self%q_end_work, self%p_end_work, position, &
+                                 velocity, scaled_position, scaled_velocity, self%hp_work)
+            if (sys%m == 0) self%stats%gradient_evaluations = &
+                self%stats%gradient_evaluations + 1
+            call end_state_status(position, velocity, scaled_position, scaled_velocity, &
+                                  end_tolerance(self), status)
+        end if
+        if (.not. status%ok()) then
+            if (status%code == HOLOSYM_SINGULAR_MATRIX) &
+                call record_dependent_nodes(self, sys, q, .false.)
+            status%message = "reduced " // trim(step_label(self, h)) // ": " // status%message
+            self%have_last = .false.
+            return
+        end if
+        self%pending%general = .false.
+        self%pending%extrapolated = self%reduced%extrapolated
+        self%pending%iterations = report%iterations
+        self%pending%pivot_ratio = report%pivot_ratio
+        self%pending%factorizations = report%factorizations
+        self%pending%residuals = report%residuals
+        self%pending%lowered = report%lowered_residuals
+        self%pending%gradients = self%reduced%scheme%gradients - gradients0
+        self%pending%hessians = 0
+        self%pending%velocity = velocity
+    end subroutine solve_reduced
+
+    !> "step with (M, N, G) = (2, 1, 3), h = 1.25000E-0001", for messages, blank-padded:
+    !! call sites trim it (a fixed length, not a deferred one: see `int_str`).
+    module function step_label(self, h) result(text)
+        class(constrained_integrator), intent(in) :: self
+        real(wp), intent(in) :: h
+        character(len=80) :: text
+        text = "step with (M, N, G) = (" // int_str(self%scheme%order_m) // ", " // &
+            int_str(self%scheme%order_n) // ", " // int_str(self%scheme%gauss_points) // &
+            "), h = " // real_str(h)
+    end function step_label
+
+end submodule holosym_step_solution
