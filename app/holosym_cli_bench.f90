@@ -1116,7 +1116,7 @@ contains
             if (status%ok()) then
                 call write_bench_csv(dir // "/" // trim(csv_name), rows, status)
                 if (status%ok() .and. size(steps_rows) > 0) call write_bench_csv(dir // &
-                    "/" // merge("steps64.csv", "steps.csv  ", wp_is_double), steps_rows, &
+                    "/" // trim(merge("steps64.csv", "steps.csv  ", wp_is_double)), steps_rows, &
                     status)
             end if
         end if
