@@ -11,7 +11,9 @@ module holosym_cli_tables
     use holosym_status_codes, only: holosym_status_t, int_str, real_str, status_code_name, &
         HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX
     use holosym_problem, only: constrained_hamiltonian
-    use holosym_linalg, only: default_pivot_tolerance
+    ! The building blocks, as an expert user takes them.
+    use holosym_internal, only: default_pivot_tolerance, farm_job, task_farm, &
+        record_reader_t, put
     use holosym_convergence, only: order_cell_t, study_settings_t, paper_order_law, &
         run_order_cells, minimum_gauss_points, reference_solution
     use holosym_scheme, only: max_order_m, max_order_n
@@ -20,8 +22,6 @@ module holosym_cli_tables
         cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
     use holosym_systems, only: system_source_t, make_source_system
-    use holosym_task_farm, only: farm_job, task_farm
-    use holosym_records, only: record_reader_t, put
     implicit none
     private
 
