@@ -58,13 +58,15 @@ typedef __float128 holosym_real;
 #define HOLOSYM_SINGULAR_MATRIX 1
 #define HOLOSYM_NEWTON_NOT_CONVERGED 2
 #define HOLOSYM_NEWTON_DIVERGED 3
-#define HOLOSYM_NONFINITE_VALUE 4               /* also: a callback returned nonzero */
+#define HOLOSYM_NONFINITE_VALUE 4               /* a callback returned NaN or Inf */
 #define HOLOSYM_RANK_DEFICIENT_CONSTRAINTS 5
 #define HOLOSYM_STEP_TOO_LARGE 6                /* spurious root, unresolved motion, h huge */
 #define HOLOSYM_STEP_TOO_SMALL 7                /* h below the resolution of the state */
+#define HOLOSYM_OUTSIDE_DOMAIN 8                /* a callback returned nonzero (refused) */
 
-/* Callbacks: return 0 on success; anything else fails the call that needed the value
- * (HOLOSYM_NONFINITE_VALUE, the message names the callback and the value returned). */
+/* Callbacks: return 0 on success; anything else says the point is outside the domain of
+ * the system and fails the call that needed the value with HOLOSYM_OUTSIDE_DOMAIN (the
+ * message names the callback and the value returned; the caller's arrays are unchanged). */
 typedef int (*holosym_hamiltonian_fn)(int n, const holosym_real *q, const holosym_real *p,
                                       holosym_real *energy, void *data);
 /* dH/dq or dH/dp into gradient[0..n-1]. */

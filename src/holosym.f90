@@ -68,7 +68,7 @@
 !!   `HOLOSYM_SINGULAR_MATRIX`,
 !!   `HOLOSYM_NEWTON_NOT_CONVERGED`, `HOLOSYM_NEWTON_DIVERGED`, `HOLOSYM_NONFINITE_VALUE`,
 !!   `HOLOSYM_RANK_DEFICIENT_CONSTRAINTS`, `HOLOSYM_STEP_TOO_LARGE`,
-!!   `HOLOSYM_STEP_TOO_SMALL`: the status codes (0 success, negative invalid input,
+!!   `HOLOSYM_STEP_TOO_SMALL`, `HOLOSYM_OUTSIDE_DOMAIN`: the status codes (0 success, negative invalid input,
 !!   positive numerical failure; see [[holosym_status_codes]] and docs/status-codes.md).
 module holosym
     use holosym_kinds, only: wp, dp, wp_is_double
@@ -79,7 +79,8 @@ module holosym
         HOLOSYM_USER_ABORT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_MODEL, HOLOSYM_INCONSISTENT_SYSTEM, HOLOSYM_SINGULAR_MATRIX, &
         HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE, &
-        HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL
+        HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, HOLOSYM_STEP_TOO_SMALL, &
+        HOLOSYM_OUTSIDE_DOMAIN
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_derivatives, lagrange_matrices
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
@@ -123,7 +124,7 @@ module holosym
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_INVALID_MODEL, HOLOSYM_INCONSISTENT_SYSTEM, &
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, HOLOSYM_STEP_TOO_LARGE, &
-        HOLOSYM_STEP_TOO_SMALL
+        HOLOSYM_STEP_TOO_SMALL, HOLOSYM_OUTSIDE_DOMAIN
     ! Basis: quadrature on [0, 1] and Lagrange polynomials.
     public :: gauss_legendre, gauss_lobatto
     public :: lagrange_values, lagrange_derivatives, lagrange_matrices

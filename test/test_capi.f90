@@ -9,7 +9,7 @@ module test_capi
     use holosym_kinds, only: wp
     use holosym_status_codes, only: HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_STEP_SIZE, &
-        HOLOSYM_NOT_INITIALIZED, HOLOSYM_NONFINITE_VALUE, HOLOSYM_USER_ABORT, &
+        HOLOSYM_NOT_INITIALIZED, HOLOSYM_OUTSIDE_DOMAIN, HOLOSYM_USER_ABORT, &
         HOLOSYM_INVALID_MODEL, holosym_status_t, status_code_table
     use holosym_integrator, only: constrained_integrator
     use holosym_models, only: planar_pendulum
@@ -298,7 +298,7 @@ contains
         p = p0
         code = holosym_step(handle, c_loc(q), c_loc(p), 0.0625_c_real)
         message = message_of(handle)
-        call check_status_code(error, int(code), HOLOSYM_NONFINITE_VALUE, "failing callback")
+        call check_status_code(error, int(code), HOLOSYM_OUTSIDE_DOMAIN, "failing callback")
         call check(error, index(message, "dh_dq returned 7") > 0, "message: " // message)
         call check(error, all(q == q0) .and. all(p == p0), "state unchanged")
         call holosym_destroy(handle)

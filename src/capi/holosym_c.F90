@@ -11,8 +11,9 @@
 !! A handle owns the integrator, a copy of the callbacks and the status of its last call.
 !! Every function returns that status code (0 success, < 0 invalid input, > 0 numerical
 !! failure: the HOLOSYM_* codes) and keeps the caller's arrays unchanged on failure. A
-!! callback returns 0 on success; any other value makes the library see NaN, fail the
-!! step with HOLOSYM_NONFINITE_VALUE and name the callback and its value in the message.
+!! callback returns 0 on success; any other value refuses the point (`refuse`): the call
+!! that needed the value fails with HOLOSYM_OUTSIDE_DOMAIN, its message names the callback
+!! and the value it returned, and the values the callback wrote are not used.
 !!
 !! A real128 build with a compiler other than gfortran has no C kind for the library's
 !! reals: the module then holds only `c_interface_available = .false.`.
@@ -24,12 +25,12 @@ module holosym_c
 #ifndef HOLOSYM_REAL64
     use, intrinsic :: iso_c_binding, only: c_float128
 #endif
-    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION, &
         HOLOSYM_NONFINITE_VALUE
-    use holosym_problem, only: constrained_hamiltonian
+    use holosym_problem, only: constrained_hamiltonian, clear_refusal, check_refusal
     use holosym_formula_model, only: formula_model, model_from_text
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
     use holosym_projection, only: project_to_manifold
@@ -179,16 +180,13 @@ contains
 
     ! ---------------------------------------------------------------- the callbacks
 
-    !> NaN, what a failed callback returns to the library.
-    real(wp) function not_a_number()
-        not_a_number = ieee_value(1.0_wp, ieee_quiet_nan)
-    end function not_a_number
-
-    !> Remember the first failing callback of the current call.
+    !> Remember the first failing callback of the current call, and refuse its point (the
+    !! values it returns to the library are then zeros, never used).
     subroutine note_failure(self, name, code)
         class(c_callback_system), intent(in) :: self
         character(len=*), intent(in) :: name
         integer(c_int), intent(in) :: code
+        call self%refuse("a callback returned non-zero")
         if (.not. associated(self%record)) return
         if (self%record%code /= 0) return
         self%record%code = code
@@ -207,7 +205,7 @@ contains
         energy = value
         if (rc /= 0) then
             call note_failure(self, "hamiltonian", rc)
-            energy = not_a_number()
+            energy = 0
         end if
     end function c_system_hamiltonian
 
@@ -223,7 +221,7 @@ contains
         gradient = g_c
         if (rc /= 0) then
             call note_failure(self, "dh_dq", rc)
-            gradient = not_a_number()
+            gradient = 0
         end if
     end subroutine c_system_dh_dq
 
@@ -239,7 +237,7 @@ contains
         gradient = g_c
         if (rc /= 0) then
             call note_failure(self, "dh_dp", rc)
-            gradient = not_a_number()
+            gradient = 0
         end if
     end subroutine c_system_dh_dp
 
@@ -254,7 +252,7 @@ contains
         phi = phi_c(1:self%m)
         if (rc /= 0) then
             call note_failure(self, "constraint", rc)
-            phi = not_a_number()
+            phi = 0
         end if
     end subroutine c_system_constraint
 
@@ -273,7 +271,7 @@ contains
         end do
         if (rc /= 0) then
             call note_failure(self, "constraint_jacobian", rc)
-            jacobian = not_a_number()
+            jacobian = 0
         end if
     end subroutine c_system_constraint_jacobian
 
@@ -1049,7 +1047,8 @@ contains
     !> int holosym_energy(holosym_integrator *integrator, const holosym_real *q,
     !! const holosym_real *p, holosym_real *energy): H(q, p) of the handle's system into
     !! *energy. Codes: HOLOSYM_INVALID_ARGUMENT (a NULL pointer), HOLOSYM_NONFINITE_VALUE
-    !! (H is not finite or its callback failed: *energy unchanged).
+    !! (H is not finite: *energy unchanged), HOLOSYM_OUTSIDE_DOMAIN (its callback failed:
+    !! *energy unchanged).
     integer(c_int) function holosym_energy(ptr, q_ptr, p_ptr, energy_ptr) &
         bind(C, name="holosym_energy")
         type(c_ptr), value :: ptr         !! the handle
@@ -1071,8 +1070,12 @@ contains
         q => reals_at(q_ptr, handle%system%n)
         p => reals_at(p_ptr, handle%system%n)
         handle%record%code = 0
+        call clear_refusal()
         energy = handle%system%hamiltonian(real(q, wp), real(p, wp))
-        if (ieee_is_finite(energy)) then
+        call check_refusal(status, "holosym_energy")
+        if (.not. status%ok()) then
+            continue
+        else if (ieee_is_finite(energy)) then
             call c_f_pointer(energy_ptr, out)
             out = real(energy, c_real)
         else
@@ -1085,7 +1088,8 @@ contains
     !> int holosym_constraint(holosym_integrator *integrator, const holosym_real *q,
     !! holosym_real *phi): the constraint values phi(q) (m of them; phi may be NULL when
     !! m = 0). Codes: HOLOSYM_INVALID_ARGUMENT (a NULL pointer), HOLOSYM_NONFINITE_VALUE
-    !! (a value not finite or the callback failed: phi unchanged).
+    !! (a value not finite: phi unchanged), HOLOSYM_OUTSIDE_DOMAIN (the callback failed:
+    !! phi unchanged).
     integer(c_int) function holosym_constraint(ptr, q_ptr, phi_ptr) &
         bind(C, name="holosym_constraint")
         type(c_ptr), value :: ptr      !! the handle
@@ -1110,8 +1114,12 @@ contains
         q => reals_at(q_ptr, handle%system%n)
         handle%record%code = 0
         allocate (phi(handle%system%m))
+        call clear_refusal()
         call handle%system%constraint(real(q, wp), phi)
-        if (all(ieee_is_finite(phi))) then
+        call check_refusal(status, "holosym_constraint")
+        if (.not. status%ok()) then
+            continue
+        else if (all(ieee_is_finite(phi))) then
             if (handle%system%m > 0) then
                 out => reals_at(phi_ptr, handle%system%m)
                 out = real(phi, c_real)

@@ -19,7 +19,7 @@ module holosym_status_codes
     integer, parameter :: short_digits = 4
 
     public :: holosym_status_t, set_status, status_code_name, code_name_field, int_str, &
-        int_len, real_str, real_field, is_finite, is_nan, is_status_code
+        int_len, real_str, real_field, is_finite, is_nan, is_status_code, is_system_fault
 
     !> Success.
     integer, parameter, public :: HOLOSYM_SUCCESS = 0
@@ -71,6 +71,10 @@ module holosym_status_codes
     !! h exceeds Newton's stagnation level in the momenta, so the step's equations cannot
     !! be solved; the message gives the limit for the state. Increase h.
     integer, parameter, public :: HOLOSYM_STEP_TOO_SMALL = 7
+    !> A procedure of the system refused the point it was called at (`refuse`; a C
+    !! callback's non-zero return): the point lies outside the domain where the system
+    !! can be evaluated. The message gives the system's reason. Nothing is changed.
+    integer, parameter, public :: HOLOSYM_OUTSIDE_DOMAIN = 8
 
     !> One status code: its value, its constant's name and its short name.
     type, public :: status_code_entry_t
@@ -81,7 +85,7 @@ module holosym_status_codes
 
     !> Every status code: the one table the short names (`status_code_name`), the C
     !! header (include/holosym.h) and docs/status-codes.md follow (a test compares them).
-    type(status_code_entry_t), parameter, public :: status_code_table(19) = [ &
+    type(status_code_entry_t), parameter, public :: status_code_table(20) = [ &
         status_code_entry_t(HOLOSYM_SUCCESS, "HOLOSYM_SUCCESS", "success"), &
         status_code_entry_t(HOLOSYM_INVALID_ORDER, "HOLOSYM_INVALID_ORDER", &
                             "invalid order parameters"), &
@@ -118,7 +122,9 @@ module holosym_status_codes
         status_code_entry_t(HOLOSYM_STEP_TOO_LARGE, "HOLOSYM_STEP_TOO_LARGE", &
                             "step too large"), &
         status_code_entry_t(HOLOSYM_STEP_TOO_SMALL, "HOLOSYM_STEP_TOO_SMALL", &
-                            "step below the resolution of the state")]
+                            "step below the resolution of the state"), &
+        status_code_entry_t(HOLOSYM_OUTSIDE_DOMAIN, "HOLOSYM_OUTSIDE_DOMAIN", &
+                            "point outside the system's domain")]
 
     !> Outcome of a call: a code (see the HOLOSYM_* constants) and a message.
     type :: holosym_status_t
@@ -171,6 +177,14 @@ contains
         integer, intent(in) :: code !! a code
         is_status_code = any(status_code_table%code == code)
     end function is_status_code
+
+    !> Whether a failure with `code` is the system's (a procedure returned NaN or Inf, or
+    !! refused the point): retrying the step from another guess or with other factors
+    !! would call the system at the same points, so the step fails at once.
+    elemental logical function is_system_fault(code)
+        integer, intent(in) :: code !! HOLOSYM_* code
+        is_system_fault = code == HOLOSYM_NONFINITE_VALUE .or. code == HOLOSYM_OUTSIDE_DOMAIN
+    end function is_system_fault
 
     !> Short symbolic name of a status code, e.g. "singular matrix".
     pure function status_code_name(code) result(name)

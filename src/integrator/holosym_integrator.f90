@@ -343,6 +343,12 @@ module holosym_integrator
             type(holosym_status_t), intent(out) :: status !! outcome of the step
         end subroutine solve_step
         !> Solve the step from (q, p) without accepting it (into `pending` and the work arrays).
+        module logical function refused(self, h, status)
+            class(constrained_integrator), intent(in) :: self
+            real(wp), intent(in) :: h
+            type(holosym_status_t), intent(inout) :: status
+        end function refused
+
         module subroutine attempt_step(self, sys, q, p, h, extrapolation, status)
             class(constrained_integrator), intent(inout) :: self !! the integrator
             class(constrained_hamiltonian), intent(in), target :: sys !! the system

@@ -162,6 +162,11 @@ contains
         else if (have_second) then
             if (.not. second_suspicious) chosen = 2
         end if
+        if (refused(self, h, status)) then
+            ! The last accepted step stays the last step (its data were not touched).
+            self%have_last = had_last
+            return
+        end if
         select case (chosen)
         case (1)
             call restore_candidate(self, first)

@@ -7,7 +7,8 @@
 !! its diagnosis on failure (`solve_step`); its acceptance (`commit_step`).
 submodule (holosym_integrator) holosym_step_solution
     use holosym_status_codes, only: HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, &
-        HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED
+        HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, is_system_fault
+    use holosym_problem, only: clear_refusal, refusal_pending, check_refusal
     use holosym_newton, only: newton_report_t, newton_solve, all_finite, stagnation_floor, &
         LINEAR_SOLVER_NATIVE
     use holosym_scheme, only: scheme_counters_t
@@ -27,7 +28,9 @@ contains
         real(wp), intent(in) :: q(:), p(:), h
         type(holosym_status_t), intent(out) :: status
         self%dependent_nodes = ""
+        call clear_refusal()
         call attempt_step(self, sys, q, p, h, .true., status)
+        if (refused(self, h, status)) return
         if (.not. status%ok()) then
             call diagnose_failure(self, sys, q, p, h, status)
             return
@@ -37,6 +40,7 @@ contains
                 call verify_root(self, sys, q, p, h, status)
                 return
             end if
+            if (refused(self, h, status)) return
             if (.not. self%pending%energy_finite) then
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, trim(step_label(self, h)) // &
                     ": hamiltonian returned NaN or Inf at the start or the end of the step")
@@ -45,6 +49,16 @@ contains
         end if
         call commit_step(self, sys, q, p, h, .false.)
     end subroutine solve_step
+
+    !> Whether the system refused a point (`refuse`) since the step began: then the step
+    !! fails with HOLOSYM_OUTSIDE_DOMAIN and the system's reason, whatever else happened.
+    module logical function refused(self, h, status)
+        class(constrained_integrator), intent(in) :: self
+        real(wp), intent(in) :: h
+        type(holosym_status_t), intent(inout) :: status
+        refused = refusal_pending()
+        if (refused) call check_refusal(status, trim(step_label(self, h)))
+    end function refused
 
     !> Solve the step from (q, p) without accepting it: the reduced step when active (the
     !! general scheme its fallback for small systems), else the general scheme. With
@@ -61,7 +75,7 @@ contains
         else
             call solve_reduced(self, sys, q, p, h, extrapolation, status)
             if (.not. (status%ok() .or. .not. self%general_ready .or. &
-                       status%code == HOLOSYM_NONFINITE_VALUE)) then
+                       is_system_fault(status%code))) then
                 ! The reduced step factors its Newton matrix in real64 only: where that is
                 ! too ill-conditioned (nearly dependent constraints), the general step of a
                 ! small system has working-precision factors to fall back on (from the
@@ -175,7 +189,7 @@ contains
         factorizations = 0
         end_velocity_residual = 0
         call solve_with_retries(self%newton)
-        if (.not. status%ok() .and. status%code /= HOLOSYM_NONFINITE_VALUE .and. &
+        if (.not. status%ok() .and. .not. is_system_fault(status%code) .and. &
             fast_options(self)) then
             ! The speed options are heuristics: before failing the step, the plain path
             ! (full Newton, working-precision LU, no pre-solve) gets its chance.
@@ -211,9 +225,9 @@ contains
             type(newton_settings_t), intent(in) :: settings
             call attempt(settings)
             if (.not. status%ok() .and. report%reused_factors .and. &
-                status%code /= HOLOSYM_NONFINITE_VALUE) call attempt(settings)
+                .not. is_system_fault(status%code)) call attempt(settings)
             if (.not. status%ok() .and. extrapolated .and. &
-                status%code /= HOLOSYM_NONFINITE_VALUE) then
+                .not. is_system_fault(status%code)) then
                 call self%scheme%constant_guess(self%x_work)
                 from_extrapolation = .false.
                 call attempt(settings)

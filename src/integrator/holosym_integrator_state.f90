@@ -11,6 +11,7 @@ submodule (holosym_integrator) holosym_state_checks
     use holosym_manifold, only: manifold_residuals, full_rank_constraints, &
         sparse_manifold_residuals, sparse_full_rank_constraints
     use holosym_system_check, only: check_system, system_check_report_t
+    use holosym_problem, only: clear_refusal, refusal_pending, check_refusal
     implicit none
 
     !> What the off-manifold messages advise.
@@ -18,8 +19,21 @@ submodule (holosym_integrator) holosym_state_checks
         "project_to_manifold (from q and p) or state_from_velocities (from q and dq/dt)"
 contains
 
-    !> Check everything a step needs before touching the state.
+    !> Check everything a step needs before touching the state (`check_start`); a point
+    !! the system refused (`refuse`) during the checks fails them with
+    !! HOLOSYM_OUTSIDE_DOMAIN.
     module subroutine validate(self, sys, q, p, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        type(holosym_status_t), intent(out) :: status
+        call clear_refusal()
+        call check_start(self, sys, q, p, h, status)
+        call check_refusal(status, "at the start state")
+    end subroutine validate
+
+    !> The checks of `validate`, in order: the set-up, the arguments, the start state.
+    subroutine check_start(self, sys, q, p, h, status)
         class(constrained_integrator), intent(inout) :: self
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:), p(:), h
@@ -71,6 +85,7 @@ contains
                         // "NaN or Inf at the start state")
                     return
                 end if
+                if (refusal_pending()) return
                 ! The system's own consistency next: a wrong declaration (a sparsity
                 ! pattern, a Jacobian) would make every later test report its effect.
                 call check_once(self, sys, q, p, status)
@@ -111,7 +126,7 @@ contains
                 call set_status(status, HOLOSYM_SUCCESS, "")
             end if
         end if
-    end subroutine validate
+    end subroutine check_start
 
     !> The check of the system (`check_system` setting) at the first start state after
     !! `init`: its failure is the call's.

@@ -21,13 +21,29 @@
 !! - `potential_sparsity`: the nonzero pattern of the Hessian of U.
 !! With both patterns declared, the step's linear algebra is banded (after a reordering
 !! of the unknowns) and its cost grows linearly with the size of a chain-like system.
+!!
+!! A procedure called at a point outside the system's domain (a square root of a negative
+!! number, a singular configuration of the model) calls `self%refuse(reason)` and returns
+!! any finite values: the library's call that needed the value fails with
+!! HOLOSYM_OUTSIDE_DOMAIN and the reason, the caller's state unchanged (as minpack's
+!! `iflag < 0`). Refusals are kept per thread (OpenMP), so ensembles refuse per member.
 module holosym_problem
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp
+    use holosym_status_codes, only: holosym_status_t, set_status, HOLOSYM_OUTSIDE_DOMAIN
     implicit none
     private
 
     public :: constrained_hamiltonian, difference_hessian, difference_constraint_hessian
+    public :: clear_refusal, refusal_pending, check_refusal
+
+    !> Length kept of a refusal's reason (longer reasons are cut).
+    integer, parameter :: reason_length = 400
+    !> Whether a procedure of the system refused a point since `clear_refusal`, and the
+    !! first reason given (per thread: the members of an ensemble refuse independently).
+    logical, save :: refused = .false.
+    character(len=reason_length), save :: refusal_reason = ""
+    !$omp threadprivate(refused, refusal_reason)
 
 
     !> Abstract constrained Hamiltonian system. Extend it and implement the deferred bindings.
@@ -64,6 +80,9 @@ module holosym_problem
         !> dH/dq in real64 arithmetic, for the reduced step's first (real64) Newton
         !! iterations (optional; default: `dh_dq` in working precision, rounded).
         procedure :: dh_dq_double => rounded_dh_dq
+        !> Say that the point of the current call lies outside the system's domain (call it
+        !! from any of the procedures above, then return finite values).
+        procedure, non_overridable :: refuse => refuse_point
     end type constrained_hamiltonian
 
     abstract interface
@@ -103,6 +122,42 @@ module holosym_problem
     end interface
 
 contains
+
+    !> Refuse the point of the current call: the library's call that needed the value
+    !! fails with HOLOSYM_OUTSIDE_DOMAIN and `reason` (the first reason given is kept).
+    !! The procedure that refuses still returns (finite values; they are not used).
+    subroutine refuse_point(self, reason)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        character(len=*), intent(in) :: reason !! why the point cannot be evaluated
+        if (refused) return
+        refused = .true.
+        refusal_reason = reason
+        if (len_trim(refusal_reason) == 0) refusal_reason = "(no reason given)"
+    end subroutine refuse_point
+
+    !> Forget earlier refusals of this thread (before a call that evaluates the system).
+    subroutine clear_refusal()
+        refused = .false.
+        refusal_reason = ""
+    end subroutine clear_refusal
+
+    !> Whether a procedure of the system refused a point since `clear_refusal`.
+    logical function refusal_pending()
+        refusal_pending = refused
+    end function refusal_pending
+
+    !> HOLOSYM_OUTSIDE_DOMAIN with `context` and the reason in `status` when a procedure
+    !! of the system refused a point since `clear_refusal` (`status` untouched otherwise).
+    subroutine check_refusal(status, context)
+        type(holosym_status_t), intent(inout) :: status !! set when a point was refused
+        character(len=*), intent(in) :: context !! where, e.g. "step 3 (h = 0.125)"
+        character(len=:), allocatable :: prefix
+        if (.not. refused) return
+        prefix = ""
+        if (len(context) > 0) prefix = context // ": "
+        call set_status(status, HOLOSYM_OUTSIDE_DOMAIN, prefix // &
+            "the system refused the point: " // trim(refusal_reason))
+    end subroutine check_refusal
 
     !> Relative step of the default central differences: epsilon**(1/3) balances
     !! truncation (step**2) against round-off (epsilon/step). A function rather than a

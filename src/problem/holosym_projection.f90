@@ -21,7 +21,7 @@ module holosym_projection
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, &
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED
     use holosym_linalg, only: lu_factor, lu_solve
-    use holosym_problem, only: constrained_hamiltonian
+    use holosym_problem, only: constrained_hamiltonian, clear_refusal, check_refusal
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default
     implicit none
     private
@@ -69,7 +69,8 @@ contains
     !! along the constraint normals), HOLOSYM_NEWTON_DIVERGED (Newton's corrections grew
     !! three times in a row or the iterate became non-finite: the state is too far from
     !! the manifold),
-    !! HOLOSYM_NEWTON_NOT_CONVERGED (iteration limit, or stalled above `tolerance`).
+    !! HOLOSYM_NEWTON_NOT_CONVERGED (iteration limit, or stalled above `tolerance`),
+    !! HOLOSYM_OUTSIDE_DOMAIN (a procedure of the system refused a point, `refuse`).
     subroutine project_to_manifold(sys, q, p, status, tolerance, max_iterations, report)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         real(wp), intent(inout) :: q(:) !! coordinates (n): in, projected out
@@ -120,6 +121,7 @@ contains
             return
         end if
 
+        call clear_refusal()
         qw = q
         pw = p
         call manifold_residuals(sys, q, p, position, velocity, local_report%position_before, &
@@ -139,6 +141,7 @@ contains
                     real_str(accept))
             end if
         end if
+        call check_refusal(local, "project_to_manifold")
         if (.not. local%ok()) then
             if (present(report)) report = local_report
             call set_status(status, local%code, local%message)

@@ -31,7 +31,7 @@ module holosym_system_check
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, &
         is_finite, HOLOSYM_SUCCESS, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INCONSISTENT_SYSTEM, HOLOSYM_NONFINITE_VALUE
-    use holosym_problem, only: constrained_hamiltonian
+    use holosym_problem, only: constrained_hamiltonian, clear_refusal, check_refusal
     implicit none
     private
 
@@ -97,7 +97,8 @@ contains
     !! return `report` lists each comparison. Codes: HOLOSYM_INCONSISTENT_SYSTEM naming the
     !! first comparison that failed and where, HOLOSYM_NONFINITE_VALUE when a procedure
     !! returns NaN or Inf at the state or next to it, HOLOSYM_SIZE_MISMATCH (q, p not of
-    !! size n), HOLOSYM_INVALID_ARGUMENT (q or p not finite).
+    !! size n), HOLOSYM_INVALID_ARGUMENT (q or p not finite), HOLOSYM_OUTSIDE_DOMAIN (a
+    !! procedure refused the state or a point next to it, `refuse`).
     subroutine check_system(sys, q, p, report, status)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         real(wp), intent(in) :: q(:) !! coordinates (n)
@@ -117,6 +118,7 @@ contains
             call set_status(local, HOLOSYM_INVALID_ARGUMENT, "check_system: q or p contains " &
                 // "NaN or Inf")
         else
+            call clear_refusal()
             call directions(sys%n, d)
             call check_gradients(sys, q, p, d, report)
             if (sys%m > 0) call check_jacobian(sys, q, d, report)
@@ -133,6 +135,7 @@ contains
                     exit
                 end if
             end do
+            call check_refusal(local, "check_system")
         end if
         if (present(status)) then
             status = local

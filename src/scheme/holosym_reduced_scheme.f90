@@ -30,7 +30,7 @@ module holosym_reduced_scheme
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_matrices
     use holosym_linalg, only: lu_factor, lu_solve
-    use holosym_problem, only: constrained_hamiltonian
+    use holosym_problem, only: constrained_hamiltonian, refusal_pending, check_refusal
     use holosym_newton, only: all_finite
     use holosym_reduced_layout, only: reduced_layout_t
     use holosym_reduced_kernels_wp, only: tables_wp => reduced_tables, &
@@ -382,6 +382,10 @@ contains
                          lay%phi_rows, lay%phi_cols, ev)
             call rows_wp(lay%d_row, lay%v_row, self%pa, ev, f)
         end associate
+        if (refusal_pending()) then
+            call check_refusal(status, "")
+            return
+        end if
         if (.not. all_finite(f)) then
             ! The user's values were finite: the sums overflowed (h or the iterate too large).
             call set_status(status, HOLOSYM_NEWTON_DIVERGED, "the step's equations overflow " &
@@ -443,6 +447,7 @@ contains
         if (.not. all(ieee_is_finite(f))) call set_status(status, HOLOSYM_NEWTON_DIVERGED, &
             "the step's equations overflow in real64 (non-finite residual from finite " // &
             "values of the system)")
+        call check_refusal(status, "")
     end subroutine reduced_residual_lowered
 
     !> The Newton matrix and d(p_b - p_a)/dx (real64, in the layout's patterns:
@@ -464,6 +469,7 @@ contains
             self%low%d = real(self%ev%d, dp)
         end if
         call second_derivatives(self, status)
+        call check_refusal(status, "")
         if (.not. status%ok()) return
         call assemble(self)
     end subroutine reduced_jacobian

@@ -24,7 +24,8 @@ module holosym_scheme
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_NEWTON_DIVERGED
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_matrices
-    use holosym_problem, only: constrained_hamiltonian, difference_hessian, &
+    use holosym_problem, only: constrained_hamiltonian, difference_hessian, refusal_pending, &
+        check_refusal, &
         difference_constraint_hessian
     use holosym_newton, only: nonlinear_system, all_finite, all_finite_matrix
     use holosym_scheme_layout, only: scheme_layout_t, unknown_count, max_block_order
@@ -520,6 +521,7 @@ contains
         call momentum_rows(self%tab, self%step, self%layout, x, self%hp_gauss, &
                            self%d_values, f)
         call constraint_rows(self, f, status)
+        call refused_evaluation(self, status)
     end subroutine scheme_residual
 
     !> `residual` with the scheme's sums in real64 arithmetic, from `evaluate_lowered`:
@@ -541,7 +543,19 @@ contains
             end associate
         end associate
         call constraint_rows(self, f, status)
+        call refused_evaluation(self, status)
     end subroutine scheme_residual_lowered
+
+    !> An evaluation during which the system refused a point (`refuse`) fails with
+    !! HOLOSYM_OUTSIDE_DOMAIN and the system's reason, whatever else it found; nothing of
+    !! it is cached.
+    subroutine refused_evaluation(self, status)
+        class(discrete_scheme), intent(inout) :: self
+        type(holosym_status_t), intent(inout) :: status
+        if (.not. refusal_pending()) return
+        self%cache_valid = .false.
+        call check_refusal(status, "")
+    end subroutine refused_evaluation
 
     !> The rows phi(q_i), i = 1..M, and Phi(q_M) H_p(q_M, D_M) of the residual, and the
     !! finiteness check of the whole residual.
@@ -602,6 +616,7 @@ contains
         else
             call assemble_jacobian(self, x, jac, status)
         end if
+        call refused_evaluation(self, status)
     end subroutine scheme_jacobian
 
     !> `jacobian` in real64: assembled in real64 arithmetic from the same second derivatives
@@ -621,6 +636,7 @@ contains
         else
             call assemble_jacobian_lowered(self, x, jac, status)
         end if
+        call refused_evaluation(self, status)
     end subroutine scheme_jacobian_lowered
 
     !> Jacobian column by column from central differences of the residual.

@@ -10,7 +10,7 @@ module holosym_reduced_step
     use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, &
-        HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE
+        HOLOSYM_NEWTON_DIVERGED, is_system_fault
     use holosym_problem, only: constrained_hamiltonian
     use holosym_reduced_scheme, only: reduced_scheme_t
     use holosym_factors, only: real64_factors_t
@@ -174,7 +174,7 @@ contains
         end if
         self%x = self%x_guess
         call newton(status)
-        if (.not. status%ok() .and. status%code /= HOLOSYM_NONFINITE_VALUE) then
+        if (.not. status%ok() .and. .not. is_system_fault(status%code)) then
             ! Kept factors may be stale, or the extrapolation poor: fresh factors from the
             ! constant guess.
             self%factors%factored = .false.

@@ -69,6 +69,7 @@ NONFINITE_VALUE = 4
 RANK_DEFICIENT_CONSTRAINTS = 5
 STEP_TOO_LARGE = 6
 STEP_TOO_SMALL = 7
+OUTSIDE_DOMAIN = 8
 
 _CODE_NAMES = {value: "HOLOSYM_" + name for name, value in globals().items()
                if name.isupper() and isinstance(value, int) and not name.startswith("_")}
