@@ -198,9 +198,8 @@ contains
             call newton_solve(self%scheme, x, settings, scale, report, local)
             pivot_ratio = report%pivot_ratio
         else
-            call self%reduced%solve(sys, q, p, h, self%newton%tolerance, &
-                stagnation_floor(self%newton), 1, .false., self%q_end_work, self%p_end_work, &
-                reduced_report, local)
+            call self%reduced%solve(sys, q, p, h, settings, stagnation_floor(self%newton), &
+                .false., self%q_end_work, self%p_end_work, reduced_report, local)
             pivot_ratio = reduced_report%pivot_ratio
         end if
         select case (local%code)

@@ -349,8 +349,7 @@ contains
         integer :: gradients0
 
         gradients0 = self%reduced%scheme%gradients
-        call self%reduced%solve(sys, q, p, h, self%newton%tolerance, &
-            stagnation_floor(self%newton), self%newton%max_iterations, &
+        call self%reduced%solve(sys, q, p, h, self%newton, stagnation_floor(self%newton), &
             self%extrapolate .and. extrapolation .and. continues_last_step(self, q, p), &
             self%dq_work, self%dp_work, report, status)
         self%stats%newton_iterations = self%stats%newton_iterations + report%iterations

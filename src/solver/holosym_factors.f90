@@ -94,15 +94,17 @@ contains
 
     !> Load the matrix (compressed sparse rows: row r holds the entries
     !! row_start(r) .. row_start(r+1)-1 of `columns` and `values`), equilibrate its rows and
-    !! factor it. `info` is 0, or k > 0 when the k-th pivot is at most
-    !! n epsilon(1.0_dp) times the largest entry (singular to real64 precision).
-    subroutine factors_factor(self, row_start, columns, values, info)
+    !! factor it. `info` is 0, or k > 0 when the k-th pivot is at most `pivot_tolerance`
+    !! (absent or <= 0: n epsilon(1.0_dp)) times the largest entry (singular to that
+    !! relative precision).
+    subroutine factors_factor(self, row_start, columns, values, info, pivot_tolerance)
         class(real64_factors_t), intent(inout) :: self
         integer, intent(in) :: row_start(:)  !! n + 1 row offsets
         integer, intent(in) :: columns(:)    !! column of each entry
         real(dp), intent(in) :: values(:)    !! value of each entry
         integer, intent(out) :: info         !! 0 or the singular pivot
-        real(dp) :: row_max, scale, threshold, smallest
+        real(dp), intent(in), optional :: pivot_tolerance !! relative pivot threshold
+        real(dp) :: row_max, scale, threshold, smallest, relative
         integer :: r, e, k, lapack_info, diag_row
 
         self%factored = .false.
@@ -127,8 +129,13 @@ contains
             end do
             scale = max(scale, row_max * self%row_scale(r))
         end do
+        relative = default_pivot_tolerance_dp(self%n)
+        if (present(pivot_tolerance)) then
+            if (pivot_tolerance > 0) relative = pivot_tolerance
+        end if
         if (.not. self%banded) then
-            call lu_factor_dp(self%a, self%pivots, info, pivot_ratio=self%pivot_ratio)
+            call lu_factor_dp(self%a, self%pivots, info, tolerance=relative, &
+                              pivot_ratio=self%pivot_ratio)
             self%factored = info == 0
             return
         end if
@@ -137,7 +144,7 @@ contains
         call dgbtrf(self%n, self%n, self%kl, self%ku, self%a, size(self%a, 1), self%pivots, &
                     lapack_info)
         !$omp end critical (holosym_lapack)
-        threshold = default_pivot_tolerance_dp(self%n) * scale
+        threshold = relative * scale
         smallest = huge(1.0_dp)
         info = 0
         do k = 1, self%n

@@ -37,7 +37,7 @@ module holosym_newton
 
     public :: nonlinear_system, newton_settings_t, newton_report_t, newton_solve
     public :: newton_workspace_t, all_finite, all_finite_matrix, stagnation_floor, &
-        newton_settings_valid
+        newton_settings_valid, contraction_limit_of, jacobian_cost_of
 
     !> Factor the Newton Jacobian in working precision with `lu_factor` (default).
     integer, parameter, public :: LINEAR_SOLVER_NATIVE = 1
@@ -69,6 +69,14 @@ module holosym_newton
     !> Cost of a lowered residual relative to a working-precision one (roughly, on the
     !! example systems), for the refactoring decision of the pre-solve.
     real(wp), parameter :: lowered_cost_ratio = 0.25_wp
+    !> This solver's `contraction_limit` when the setting is left at 0: kept dense factors
+    !! that contract worse than this per iteration are replaced (a dense factorisation
+    !! costs O(n^3): the limit is stricter than the reduced step's banded one).
+    real(wp), parameter, public :: dense_contraction_limit = 0.05_wp
+    !> This solver's `jacobian_cost` when the setting is left negative: forming and
+    !! factoring the dense Newton matrix costs about two working-precision residuals on
+    !! the example systems.
+    real(wp), parameter, public :: dense_jacobian_cost = 2
 
     !> A square nonlinear system: extend it and implement `residual` and `jacobian`.
     type, abstract :: nonlinear_system
@@ -102,11 +110,14 @@ module holosym_newton
         !! workspace is given) while the corrections contract well.
         logical :: simplified = .false.
         !> Simplified Newton refactors at the current iterate when a correction is larger
-        !! than this fraction of the previous one.
-        real(wp) :: contraction_limit = 0.05_wp
+        !! than this fraction of the previous one; 0 (the default) means the solver's own
+        !! value (`dense_contraction_limit` 0.05 here, the reduced step's 0.1).
+        real(wp) :: contraction_limit = 0
         !> Simplified Newton: cost of a Jacobian and its factorisation, in residual
         !! evaluations; refactoring is chosen when it is predicted to save more than this.
-        real(wp) :: jacobian_cost = 2
+        !! Negative (the default) means the solver's own value (`dense_jacobian_cost` 2
+        !! here, the reduced step's 1).
+        real(wp) :: jacobian_cost = -1
         !> With the mixed linear solver: iterate `residual_lowered` (real64 arithmetic) to
         !! corrections of about 1.6e-10 before the working-precision residual.
         logical :: presolve = .false.
@@ -449,7 +460,7 @@ contains
                 growth = 0
                 if (settings%simplified .and. phase_iterations > 1) refactor = refactor .or. &
                     refactor_pays(rate, correction, ws%kappa, rate_floor, settings%tolerance, &
-                                  settings%jacobian_cost)
+                                  jacobian_cost_of(settings, dense_jacobian_cost))
             else if (plain .or. fresh) then
                 if (correction > previous .and. correction > stagnation) then
                     growth = growth + 1
@@ -478,9 +489,10 @@ contains
                 else
                     ! Simplified Newton: refactor here when the kept factors contract poorly
                     ! or fresh ones are predicted to need fewer evaluations in all.
-                    cost = settings%jacobian_cost
+                    cost = jacobian_cost_of(settings, dense_jacobian_cost)
                     if (lowered) cost = cost / lowered_cost_ratio
-                    refactor = rate > settings%contraction_limit .or. refactor_pays(rate, &
+                    refactor = rate > contraction_limit_of(settings, dense_contraction_limit) &
+                        .or. refactor_pays(rate, &
                         correction, ws%kappa, rate_floor, target, cost)
                     if (refactor .and. report%reused_factors) ws%prefer_fresh = .true.
                 end if
@@ -528,10 +540,27 @@ contains
         if (stagnation_floor <= 0) stagnation_floor = eps**(2.0_wp / 3)
     end function stagnation_floor
 
+    !> `settings%contraction_limit`, or `own` (the solver's value) when it is 0.
+    pure real(wp) function contraction_limit_of(settings, own) result(limit)
+        type(newton_settings_t), intent(in) :: settings !! Newton's settings
+        real(wp), intent(in) :: own !! the solver's own limit
+        limit = settings%contraction_limit
+        if (limit <= 0) limit = own
+    end function contraction_limit_of
+
+    !> `settings%jacobian_cost`, or `own` (the solver's value) when it is negative.
+    pure real(wp) function jacobian_cost_of(settings, own) result(cost)
+        type(newton_settings_t), intent(in) :: settings !! Newton's settings
+        real(wp), intent(in) :: own !! the solver's own cost
+        cost = settings%jacobian_cost
+        if (cost < 0) cost = own
+    end function jacobian_cost_of
+
     !> Whether every Newton setting is in its range; `message` names the first that is not.
     !! Ranges: 1 <= max_iterations, 1 <= max_growth, 0 < tolerance < 1,
     !! 0 <= stagnation_level < 1, pivot_tolerance < 1 (<= 0: the default),
-    !! 0 < contraction_limit < 1, 0 <= jacobian_cost, every real finite.
+    !! 0 <= contraction_limit < 1 (0: the solver's own), jacobian_cost any (< 0: the
+    !! solver's own), every real finite.
     logical function newton_settings_valid(settings, message) result(valid)
         type(newton_settings_t), intent(in) :: settings !! the settings
         character(len=:), allocatable, intent(out) :: message !! the first bad one, or ""
@@ -562,14 +591,12 @@ contains
             else if (.not. is_finite(s%contraction_limit)) then
                 message = "newton%contraction_limit must be finite, got " // &
                     real_str(s%contraction_limit)
-            else if (s%contraction_limit <= 0 .or. s%contraction_limit >= 1) then
-                message = "newton%contraction_limit must be in (0, 1), got " // &
-                    real_str(s%contraction_limit)
+            else if (s%contraction_limit < 0 .or. s%contraction_limit >= 1) then
+                message = "newton%contraction_limit must be in [0, 1) (0: the solver's " // &
+                    "own), got " // real_str(s%contraction_limit)
             else if (.not. is_finite(s%jacobian_cost)) then
                 message = "newton%jacobian_cost must be finite, got " // &
                     real_str(s%jacobian_cost)
-            else if (s%jacobian_cost < 0) then
-                message = "newton%jacobian_cost must be >= 0, got " // real_str(s%jacobian_cost)
             end if
         end associate
         valid = len(message) == 0

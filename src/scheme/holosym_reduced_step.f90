@@ -14,6 +14,7 @@ module holosym_reduced_step
     use holosym_problem, only: constrained_hamiltonian
     use holosym_reduced_scheme, only: reduced_scheme_t
     use holosym_factors, only: real64_factors_t
+    use holosym_newton, only: newton_settings_t, contraction_limit_of, jacobian_cost_of
     implicit none
     private
 
@@ -21,11 +22,13 @@ module holosym_reduced_step
 
     !> The real64 phase stops when its corrections reach this size relative to the state
     !! (about 450 real64 epsilons: above its round-off, where it would stagnate) ...
-    real(wp), parameter :: lowered_tolerance = 1.0e-13_wp
+    real(wp), parameter :: real64_phase_tolerance = 1.0e-13_wp
     !> ... or stop decreasing below this one.
-    real(wp), parameter :: lowered_floor = 1.0e-10_wp
-    !> Kept factors that contract worse than this per iteration are replaced ...
-    real(wp), parameter :: contraction_limit = 0.1_wp
+    real(wp), parameter :: real64_phase_floor = 1.0e-10_wp
+    !> This step's `newton%contraction_limit` when the setting is left at 0: kept factors
+    !! that contract worse than this per iteration are replaced (banded factors are cheap
+    !! to renew, so the limit is looser than the dense solver's) ...
+    real(wp), parameter, public :: reduced_contraction_limit = 0.1_wp
     !> ... and so are factors that would need more than this many further corrections.
     real(dp), parameter :: slow_limit = 4
     !> With `prefer_fresh`, kept factors are tried again after this many steps.
@@ -33,8 +36,9 @@ module holosym_reduced_step
     !> At the end of the real64 phase, factors contracting worse than this are replaced
     !! when the working-precision target is far (see `refresh_pays`).
     real(wp), parameter :: fresh_rate = 1.0e-12_wp
-    !> Cost of forming and factoring the Newton matrix, in working-precision residuals.
-    real(wp), parameter :: jacobian_cost = 1
+    !> This step's `newton%jacobian_cost` when the setting is left negative: forming and
+    !! factoring its real64 Newton matrix costs about one working-precision residual.
+    real(wp), parameter, public :: reduced_jacobian_cost = 1
     !> Safety factor on the error predicted from the contraction rate, which varies from one
     !! iteration to the next.
     real(wp), parameter :: rate_margin = 8
@@ -45,8 +49,6 @@ module holosym_reduced_step
     !> Below the round-off floor, corrections shrinking by less than this factor have
     !! stagnated.
     real(wp), parameter :: stagnation_rate = 0.5_wp
-    !> Growing corrections with fresh factors this many times in a row: diverged.
-    integer, parameter :: max_growth = 3
 
     !> Outcomes of one Newton iteration (see `next_action`).
     integer, parameter :: ACTION_ITERATE = 0, ACTION_CONVERGED = 1, ACTION_REFACTOR = 2, &
@@ -130,19 +132,21 @@ contains
 
     !> Solve the step from (q, p) with size h: increments dq = q_b - q_a, dpb = p_b - p_a,
     !! and the solution in `x`; `accept` makes it the previous step of the next solve.
-    !! `tolerance` bounds the Newton error relative to the state's size (`scale`);
+    !! `settings` (the integrator's `newton`): `tolerance` bounds the Newton error relative
+    !! to the state's size (`scale`), `stagnation` is the round-off floor of the
+    !! corrections, and `max_iterations`, `max_growth`, `contraction_limit`,
+    !! `jacobian_cost`, `pivot_tolerance` act as in `newton_solve`;
     !! `continues` starts from the previous accepted step's polynomials (when its h is the
     !! same). On failure the kept factors and the previous step are dropped. Codes:
     !! HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED (also
     !! equations that overflow), HOLOSYM_NONFINITE_VALUE (from the system's procedures).
-    subroutine step_solve(self, sys, q, p, h, tolerance, stagnation, max_iterations, &
-                          continues, dq, dpb, report, status)
+    subroutine step_solve(self, sys, q, p, h, settings, stagnation, continues, dq, dpb, &
+                          report, status)
         class(reduced_step_t), intent(inout) :: self
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
-        real(wp), intent(in) :: tolerance   !! Newton tolerance (relative)
+        type(newton_settings_t), intent(in) :: settings !! Newton's settings
         real(wp), intent(in) :: stagnation  !! round-off floor of the corrections (relative)
-        integer, intent(in) :: max_iterations
         logical, intent(in) :: continues    !! (q, p) is the previous step's end: extrapolate
         real(wp), intent(out) :: dq(:), dpb(:)
         type(reduced_report_t), intent(out) :: report
@@ -213,7 +217,7 @@ contains
             watch = .false.
             first = 0
             low_rate = 1
-            do iter = 1, max_iterations
+            do iter = 1, settings%max_iterations
                 report%iterations = report%iterations + 1
                 ! The residual at x; new factors, when due, from the same evaluation.
                 ! An iterate or residual beyond the range of real64 (h far beyond the
@@ -244,15 +248,15 @@ contains
                     last_rate = 0
                 end if
                 if (lowered) then
-                    target = lowered_tolerance
-                    floor = lowered_floor
+                    target = real64_phase_tolerance
+                    floor = real64_phase_floor
                 else
-                    target = tolerance
+                    target = settings%tolerance
                     floor = stagnation
                 end if
                 call correct(correction)
                 action = next_action(correction, previous, last_rate, target, floor, fresh, &
-                                     growth)
+                                     settings, growth)
                 if (watch) call first_corrections(correction, action)
                 if (action == ACTION_REFACTOR) then
                     ! Kept factors contract poorly: fresh ones at x, same residual.
@@ -264,7 +268,7 @@ contains
                     last_rate = 0
                     call correct(correction)
                     action = next_action(correction, previous, last_rate, target, floor, &
-                                         fresh, growth)
+                                         fresh, settings, growth)
                 end if
                 select case (action)
                 case (ACTION_DIVERGED)
@@ -274,7 +278,7 @@ contains
                     return
                 case (ACTION_CONVERGED)
                     self%x = self%x - real(self%delta, wp)
-                    if (.not. lowered .or. tolerance >= lowered_tolerance) then
+                    if (.not. lowered .or. settings%tolerance >= real64_phase_tolerance) then
                         ! Accepted without a confirming residual: the step's results from
                         ! the evaluation at the last iterate, updated to first order. A
                         ! tolerance the real64 phase meets needs no working-precision
@@ -287,11 +291,12 @@ contains
                     end if
                     lowered = .false.
                     if (previous < huge(1.0_wp)) rate = correction / previous
-                    need_factors = refresh_pays(rate, correction, tolerance)
+                    need_factors = refresh_pays(rate, correction, settings%tolerance, &
+                                                jacobian_cost_of(settings, reduced_jacobian_cost))
                     renewed = need_factors
                     ! A rate measured above the real64 round-off predicts the kept factors'.
                     low_rate = 1
-                    if (previous < huge(1.0_wp) .and. correction > 10 * lowered_tolerance &
+                    if (previous < huge(1.0_wp) .and. correction > 10 * real64_phase_tolerance &
                         .and. rate < 1) low_rate = rate
                     watch = .true.
                     previous = huge(1.0_wp)
@@ -306,7 +311,7 @@ contains
                 fresh = .false.
             end do
             call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged " // &
-                "after " // int_str(max_iterations) // " iterations")
+                "after " // int_str(settings%max_iterations) // " iterations")
         end subroutine newton
 
         !> HOLOSYM_NEWTON_DIVERGED: the `what` of the iteration left the range of real64.
@@ -336,7 +341,7 @@ contains
                     known = low_rate
                 end if
                 if (action == ACTION_ITERATE .and. known < 1) then
-                    if (rate_margin * known / (1 - known) * correction <= tolerance) &
+                    if (rate_margin * known / (1 - known) * correction <= settings%tolerance) &
                         action = ACTION_CONVERGED
                 end if
             else if (renewed) then
@@ -365,7 +370,8 @@ contains
             call self%scheme%jacobian(lowered, status)
             if (.not. status%ok()) return
             call self%factors%factor(self%scheme%layout%jac_start, self%scheme%layout%jac_col, &
-                                     self%scheme%jac_values, info)
+                                     self%scheme%jac_values, info, &
+                                     real(settings%pivot_tolerance, dp))
             report%factorizations = report%factorizations + 1
             if (info /= 0) then
                 self%singular_x = self%x
@@ -408,9 +414,9 @@ contains
 
     !> At the end of the real64 phase (last correction `correction`, contraction `rate`):
     !! whether fresh factors here reach `tolerance` in fewer working-precision residuals,
-    !! counting the cost of forming them.
-    pure logical function refresh_pays(rate, correction, tolerance)
-        real(wp), intent(in) :: rate, correction, tolerance
+    !! counting the cost of forming them (`jacobian_cost` residuals).
+    pure logical function refresh_pays(rate, correction, tolerance, jacobian_cost)
+        real(wp), intent(in) :: rate, correction, tolerance, jacobian_cost
         real(dp) :: keep, renew
         refresh_pays = .false.
         if (correction <= tolerance .or. rate <= fresh_rate) return
@@ -441,18 +447,20 @@ contains
     !!   (with the margin `rate_margin`), is within `target`; or when corrections stop
     !!   decreasing (by `stagnation_rate`) below `floor` (round-off);
     !! - REFACTOR, far from the target, when factors formed at an earlier iterate contract
-    !!   worse than `contraction_limit` or too slowly to reach it soon (`slow_iterations`);
-    !! - DIVERGED after `max_growth` growing corrections with fresh factors;
+    !!   worse than `settings`' contraction limit or too slowly to reach it soon
+    !!   (`slow_iterations`);
+    !! - DIVERGED after `settings%max_growth` growing corrections with fresh factors;
     !! - else ITERATE.
     integer function next_action(correction, previous, last_rate, target, floor, fresh, &
-                                 growth) result(action)
+                                 settings, growth) result(action)
         real(wp), intent(in) :: correction, previous, last_rate, target, floor
         logical, intent(in) :: fresh   !! the factors were formed in this solve
+        type(newton_settings_t), intent(in) :: settings !! max_growth, contraction_limit
         integer, intent(inout) :: growth
         real(wp) :: rate
         action = ACTION_ITERATE
         if (.not. is_finite(correction)) then
-            growth = max_growth
+            growth = settings%max_growth
             action = ACTION_DIVERGED
             return
         end if
@@ -474,11 +482,12 @@ contains
             return
         end if
         if (.not. fresh .and. correction > refactor_floor * target .and. &
-            (rate > contraction_limit .or. slow_iterations(rate, correction, target))) then
+            (rate > contraction_limit_of(settings, reduced_contraction_limit) .or. &
+             slow_iterations(rate, correction, target))) then
             action = ACTION_REFACTOR
         else if (rate >= 1) then
             growth = growth + 1
-            if (growth >= max_growth) action = ACTION_DIVERGED
+            if (growth >= settings%max_growth) action = ACTION_DIVERGED
         else
             growth = 0
         end if
