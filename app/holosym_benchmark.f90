@@ -132,14 +132,18 @@ contains
         case (8)
             name = "fast without the real64 pre-solve"
         case default
-            name = "fast: all options"
+            name = "the defaults (reduced step: all fast options)"
         end select
     end function variant_name
 
-    !> Set the options of `integ` for option set `variant`.
+    !> Set the options of `integ` for option set `variant`, before its `init`: the sets
+    !! 0 .. variant_count - 1 run the general step (`structured = .false.`, which honours
+    !! each option alone), `variant_count` the defaults (the reduced step where the system
+    !! allows it).
     subroutine configure_variant(integ, variant)
         type(constrained_integrator), intent(inout) :: integ !! the integrator
         integer, intent(in) :: variant !! 0 .. variant_count
+        integ%structured = variant >= variant_count
         integ%newton%simplified = .false.
         integ%newton%presolve = .false.
         integ%linear_solver = "real128"
@@ -178,7 +182,7 @@ contains
             integ%linear_solver = "mixed"
             integ%newton%presolve = .true.
             integ%extrapolate = .true.
-            integ%hessians = "user"
+            integ%hessians = "automatic"
             integ%linear_increments = .true.
         end select
     end subroutine configure_variant
@@ -262,12 +266,12 @@ contains
         if (diagnose) then
             q = q0
             p = p0
+            call configure_variant(integ, variant)
             call integ%init(sys, order_m, order_n, gauss_points, status)
             if (.not. status%ok()) then
                 row%code = status%code
                 return
             end if
-            call configure_variant(integ, variant)
             if (present(newton_tolerance)) then
                 if (newton_tolerance > 0) then
                     ! States then meet the constraints to about this tolerance: accept them
@@ -293,9 +297,9 @@ contains
             repeat = repeat + 1
             q = q0
             p = p0
+            call configure_variant(integ, variant)
             call integ%init(sys, order_m, order_n, gauss_points, status)
             if (.not. status%ok()) exit
-            call configure_variant(integ, variant)
             if (present(newton_tolerance)) then
                 if (newton_tolerance > 0) then
                     ! States then meet the constraints to about this tolerance: accept them

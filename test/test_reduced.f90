@@ -4,7 +4,7 @@
 module test_reduced
     use holosym_kinds, only: wp, dp
     use holosym_status_codes, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
-        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE
+        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, HOLOSYM_NEWTON_NOT_CONVERGED
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
@@ -73,7 +73,9 @@ contains
             new_test("band_independent_of_chain_length", band_independent), &
             new_test("rejects_bad_declarations", bad_declarations), &
             new_test("failure_keeps_state", failure_keeps_state), &
-            new_test("nearly_dependent_constraints_fall_back", nearly_dependent) &
+            new_test("nearly_dependent_constraints_fall_back", nearly_dependent), &
+            new_test("options_it_does_not_honour_refused", options_refused), &
+            new_test("newton_settings_act_on_it", newton_settings_act) &
         ]
     end function reduced_tests
 
@@ -318,6 +320,143 @@ contains
         call integ%init(negative, 2, 1, 3, status)
         call check_status_code(error, status%code, HOLOSYM_SUCCESS, "general path")
     end subroutine bad_declarations
+
+    !> Each option the reduced step does not honour is refused at the first step with
+    !! HOLOSYM_INVALID_ARGUMENT naming it (the state unchanged), and honoured by the general
+    !! step (`structured = .false.`); 'user' Hessians are refused where the reduced step
+    !! differences the gradients (a declared sparsity), 'differences' where it calls the
+    !! system's Hessians (none declared), and the other choice of each is accepted.
+    subroutine options_refused(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(len=*), parameter :: names(6) = [character(len=32) :: &
+            "newton%simplified", "newton%presolve", "linear_solver", "jacobian", &
+            "linear_increments", "linear_solver"]
+        type(pendulum_chain) :: sparse
+        type(dense_chain) :: dense
+        integer :: k
+        ! Eight links: large enough for the reduced step to use the declared sparsity.
+        sparse = pendulum_chain(8)
+        dense%pendulum_chain = pendulum_chain(8)
+        do k = 1, size(names)
+            if (k == 2 .and. precision(1.0_wp) <= precision(1.0_dp)) cycle
+            call expect(sparse, k, "", .true., trim(names(k)))
+            call expect(sparse, k, "", .false., "")
+        end do
+        call expect(sparse, 0, "user", .true., "hessians = 'user'")
+        call expect(sparse, 0, "differences", .true., "")
+        call expect(sparse, 0, "user", .false., "")
+        call expect(dense, 0, "differences", .true., "hessians = 'differences'")
+        call expect(dense, 0, "user", .true., "")
+        call expect(dense, 0, "automatic", .true., "")
+        call expect(dense, 0, "differences", .false., "")
+    contains
+        !> One step with option `option` (1..6 as `names`, 0 none) and `hessians` ("" the
+        !! default) on path `structured`: refused naming `refusal`, or a success when "".
+        subroutine expect(sys, option, hessians, structured, refusal)
+            class(pendulum_chain), intent(in) :: sys
+            integer, intent(in) :: option
+            character(len=*), intent(in) :: hessians, refusal
+            logical, intent(in) :: structured
+            type(constrained_integrator) :: integ
+            type(holosym_status_t) :: status
+            type(step_info_t) :: info
+            real(wp) :: q(16), p(16), q0(16), p0(16), theta(8)
+            character(len=:), allocatable :: label
+            theta = 0.4_wp
+            call sys%state_from_angles(theta, 0 * theta, q0, p0)
+            q = q0
+            p = p0
+            integ%structured = structured
+            select case (option)
+            case (1)
+                integ%newton%simplified = .false.
+            case (2)
+                integ%newton%presolve = .false.
+            case (3)
+                integ%linear_solver = "real128"
+            case (4)
+                integ%jacobian = "residual-differences"
+            case (5)
+                integ%linear_increments = .false.
+            case (6)
+                integ%linear_solver = "native"
+            end select
+            if (len(hessians) > 0) integ%hessians = hessians
+            label = "option " // int_str(option) // " hessians '" // hessians // &
+                "' structured " // merge("T", "F", structured)
+            call integ%init(sys, 2, 1, 3, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, label // ": init")
+            if (allocated(error)) return
+            call integ%step(sys, q, p, 0.01_wp, info, status)
+            if (len(refusal) == 0) then
+                call check_status_code(error, status%code, HOLOSYM_SUCCESS, label)
+                return
+            end if
+            call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, label)
+            if (allocated(error)) return
+            call check(error, index(status%message, refusal) > 0 .and. &
+                index(status%message, "structured = .false.") > 0, label // &
+                ": message '" // status%message // "'")
+            call check(error, all(q == q0) .and. all(p == p0), label // ": state changed")
+        end subroutine expect
+    end subroutine options_refused
+
+    !> The Newton settings act on the reduced step: one iteration allowed cannot converge
+    !! (HOLOSYM_NEWTON_NOT_CONVERGED), a contraction limit near 0 renews the factors more
+    !! often than the default, and the defaults (0 and a negative cost: the step's own
+    !! values) give the same run as those values set explicitly.
+    subroutine newton_settings_act(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(pendulum_chain) :: sys
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        real(wp) :: q(16), p(16), q_default(16), p_default(16), q0(16), p0(16), theta(8)
+        integer :: trial
+        integer(kind=8) :: factorizations(3)
+        sys = pendulum_chain(8)
+        theta = 0.6_wp
+        call sys%state_from_angles(theta, 0 * theta, q0, p0)
+        q = q0
+        p = p0
+        integ%newton%max_iterations = 1
+        call integ%init(sys, 4, 3, 5, status)
+        call integ%integrate(sys, q, p, 0.05_wp, 4, status=status)
+        call check_status_code(error, status%code, HOLOSYM_NEWTON_NOT_CONVERGED, &
+            "max_iterations = 1")
+        call check(error, all(q == q0) .and. all(p == p0), "state changed by a failure")
+        if (allocated(error)) return
+        do trial = 1, 3
+            q = q0
+            p = p0
+            integ = constrained_integrator()
+            select case (trial)
+            case (2)
+                integ%newton%contraction_limit = 1.0e-30_wp
+            case (3)
+                integ%newton%contraction_limit = 0.1_wp
+                integ%newton%jacobian_cost = 1
+            end select
+            call integ%init(sys, 4, 3, 5, status)
+            call integ%integrate(sys, q, p, 0.05_wp, 20, status=status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "trial " // &
+                int_str(trial))
+            if (allocated(error)) return
+            factorizations(trial) = integ%stats%lu_factorizations
+            if (trial == 1) then
+                q_default = q
+                p_default = p
+            else if (trial == 3) then
+                call check(error, all(q == q_default) .and. all(p == p_default), &
+                    "the reduced step's own values set explicitly change the run")
+            end if
+        end do
+        call check(error, factorizations(2) > factorizations(1), "contraction_limit " // &
+            "1e-30: " // int_str(int(factorizations(2))) // " factorizations, default " // &
+            int_str(int(factorizations(1))))
+        call check(error, factorizations(3) == factorizations(1), "own values: " // &
+            int_str(int(factorizations(3))) // " factorizations, default " // &
+            int_str(int(factorizations(1))))
+    end subroutine newton_settings_act
 
     !> A NaN gradient in the third step: code 4, the state of step 2 kept.
     subroutine failure_keeps_state(error)

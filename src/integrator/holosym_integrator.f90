@@ -6,10 +6,18 @@
 !! grows like the square root of the step count), reports each step to an optional
 !! observer, and on failure keeps the state of the last good step.
 !!
-!! Speed options (components of the integrator; every path ends by iterating the same
-!! working-precision residual to the same tolerance, so the results agree to round-off).
-!! Defaults first; the second value gives the plain path (full Newton, working-precision
-!! LU), which is also tried automatically when a fast solve fails:
+!! Two paths. Where a system declares a constant diagonal mass matrix (`diagonal_mass`,
+!! every built-in model and model file does) the default, `structured = .true.`, takes the
+!! reduced step (momenta eliminated, sparse or banded real64 factors of its Newton matrix,
+!! simplified Newton with a real64 first phase); `structured = .false.` before `init`
+!! takes the general step (all unknowns, dense Newton matrix). Both iterate the same
+!! working-precision equations to the same tolerance, so the results agree to round-off.
+!!
+!! Speed options (components of the integrator). Defaults first; the second value gives
+!! the plain path (full Newton, working-precision LU), which is also tried automatically
+!! when a fast solve fails. The general step honours every value; the reduced step
+!! honours the defaults only, and refuses the other values at the first step
+!! (HOLOSYM_INVALID_ARGUMENT naming the option) rather than ignore them:
 !!
 !! - `newton%simplified` (`.true.` | `.false.`): keep the factorised Jacobian across
 !!   iterations and steps; refactor when a cost model says it pays.
@@ -22,9 +30,18 @@
 !!   instead of one more evaluation at the solution.
 !! - `jacobian` (`'assembled'` | `'residual-differences'`): from second derivatives, or
 !!   differences of the residual (for checks).
-!! - `hessians` (`'user'` | `'differences'`): the system's `hessian` bindings, or differences
-!!   of its gradients.
-!! - `extrapolate` (`.true.` | `.false.`): first guess from the previous step's polynomials.
+!! - `hessians` (`'automatic'` | `'user'` | `'differences'`): the path's own choice, the
+!!   system's `hessian` bindings, or differences of its gradients. `'automatic'` is
+!!   `'user'` on the general step; the reduced step uses the bindings when no sparsity is
+!!   declared (or the system is small) and differences along the colours of the coupling
+!!   graph otherwise, and refuses the other explicit value.
+!! - `extrapolate` (`.true.` | `.false.`): first guess from the previous step's polynomials
+!!   (both paths).
+!!
+!! The other Newton settings (`tolerance`, `stagnation_level`, `max_iterations`,
+!! `max_growth`, `pivot_tolerance`, `contraction_limit`, `jacobian_cost`) act on both
+!! paths; `contraction_limit` 0 and a negative `jacobian_cost` (the defaults) mean each
+!! path's own value.
 !!
 !! `'native'` is a synonym of `'real128'` and `'lapack'` of `'mixed'` (the name of the
 !! default in the real64 build, `-DHOLOSYM_REAL64`). `stats` counts the work.
@@ -191,8 +208,9 @@ module holosym_integrator
         character(len=16) :: linear_solver = default_linear_solver
         !> Newton Jacobian: 'assembled' (second derivatives) or 'residual-differences'.
         character(len=24) :: jacobian = "assembled"
-        !> Second derivatives: 'user' (the system's bindings) or 'differences' (of gradients).
-        character(len=16) :: hessians = "user"
+        !> Second derivatives: 'automatic' (the path's own choice: the system's bindings on
+        !! the general step), 'user' (the system's bindings) or 'differences' (of gradients).
+        character(len=16) :: hessians = "automatic"
         !> Step results from the last iterate's evaluation updated to first order (saves an
         !! evaluation per step) instead of a new evaluation at the solution.
         logical :: linear_increments = .true.

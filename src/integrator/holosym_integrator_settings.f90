@@ -49,14 +49,49 @@ contains
         end if
         if (len(message) == 0) then
             select case (self%hessians)
-            case ("user", "differences")
+            case ("automatic", "user", "differences")
             case default
-                message = "hessians must be 'user' or 'differences'; got '" // &
+                message = "hessians must be 'automatic', 'user' or 'differences'; got '" // &
                     trim(self%hessians) // "'"
             end select
         end if
+        if (len(message) == 0 .and. self%reduced_active) message = reduced_refusal(self)
         settings_valid = len(message) == 0
     end function settings_valid
+
+    !> "" when every option is one the reduced step honours, else the refusal naming the
+    !! first that it does not (the general step honours them all: `structured = .false.`
+    !! before `init`). The reduced step is simplified Newton with real64 factors of its
+    !! assembled Newton matrix, a real64 first phase in real128 and first-order step
+    !! results; its second derivatives are the system's `hessian` bindings when no sparsity
+    !! is declared, else differences along the colours of the coupling graph.
+    function reduced_refusal(self) result(message)
+        class(constrained_integrator), intent(in) :: self
+        character(len=:), allocatable :: message
+        character(len=*), parameter :: general = "; set structured = .false. before " // &
+            "init for the general step, which honours it"
+        message = ""
+        if (.not. self%newton%simplified) then
+            message = "newton%simplified = .false."
+        else if (.not. self%newton%presolve .and. .not. wp_is_double) then
+            message = "newton%presolve = .false."
+        else if (self%linear_solver == "real128" .or. self%linear_solver == "native") then
+            message = "linear_solver = '" // trim(self%linear_solver) // "'"
+        else if (self%jacobian /= "assembled") then
+            message = "jacobian = '" // trim(self%jacobian) // "'"
+        else if (.not. self%linear_increments) then
+            message = "linear_increments = .false."
+        else if (self%hessians == "user" .and. self%reduced%scheme%layout%sparse) then
+            message = "hessians = 'user' (with a declared sparsity it differences the " // &
+                "gradients along the colours of the coupling graph)"
+        else if (self%hessians == "differences" .and. .not. &
+                 self%reduced%scheme%layout%sparse) then
+            message = "hessians = 'differences' (without a declared sparsity it calls " // &
+                "the system's hessian bindings)"
+        end if
+        if (len(message) > 0) message = "the reduced step (structured = .true., the " // &
+            "path of this system) does not honour " // message // general
+    end function reduced_refusal
 
     !> Largest scaled constraint residual of an accepted end state: `end_state_tolerance`,
     !! or `end_state_factor` times a looser Newton tolerance.
@@ -93,13 +128,13 @@ contains
             return
         end select
         select case (self%hessians)
-        case ("user")
+        case ("automatic", "user")
             modes(3) = HESSIANS_USER
         case ("differences")
             modes(3) = HESSIANS_DIFFERENCES
         case default
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "hessians must be 'user' or " // &
-                "'differences'; got '" // trim(self%hessians) // "'")
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "hessians must be " // &
+                "'automatic', 'user' or 'differences'; got '" // trim(self%hessians) // "'")
             return
         end select
         ! Kept factors belong to one step size and one way of forming the Jacobian.
