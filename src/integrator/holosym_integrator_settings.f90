@@ -55,9 +55,24 @@ contains
                     trim(self%hessians) // "'"
             end select
         end if
-        if (len(message) == 0 .and. self%reduced_active) message = reduced_refusal(self)
+        if (len(message) == 0 .and. self%reduced_active) then
+            if (.not. reduced_honours(self)) message = reduced_refusal(self)
+        end if
         settings_valid = len(message) == 0
     end function settings_valid
+
+    !> Whether the reduced step honours every option (the test of `reduced_refusal`,
+    !! without building a message: it runs before every step).
+    pure logical function reduced_honours(self)
+        class(constrained_integrator), intent(in) :: self
+        reduced_honours = self%newton%simplified .and. &
+            (self%newton%presolve .or. wp_is_double) .and. &
+            self%linear_solver /= "real128" .and. self%linear_solver /= "native" .and. &
+            self%jacobian == "assembled" .and. self%linear_increments .and. &
+            .not. (self%hessians == "user" .and. self%reduced%scheme%layout%sparse) .and. &
+            .not. (self%hessians == "differences" .and. .not. &
+                   self%reduced%scheme%layout%sparse)
+    end function reduced_honours
 
     !> "" when every option is one the reduced step honours, else the refusal naming the
     !! first that it does not (the general step honours them all: `structured = .false.`

@@ -137,8 +137,9 @@ contains
 
     !> Forget earlier refusals of this thread (before a call that evaluates the system).
     subroutine clear_refusal()
+        ! The reason is written by the next refusal (blanking it here would cost every
+        ! step a string fill).
         refused = .false.
-        refusal_reason = ""
     end subroutine clear_refusal
 
     !> Whether a procedure of the system refused a point since `clear_refusal`.
@@ -151,13 +152,20 @@ contains
     subroutine check_refusal(status, context)
         type(holosym_status_t), intent(inout) :: status !! set when a point was refused
         character(len=*), intent(in) :: context !! where, e.g. "step 3 (h = 0.125)"
+        ! The message is built apart: the check runs after every evaluation of a step.
+        if (refused) call report_refusal(status, context)
+    end subroutine check_refusal
+
+    !> The status of `check_refusal` when a point was refused.
+    subroutine report_refusal(status, context)
+        type(holosym_status_t), intent(inout) :: status
+        character(len=*), intent(in) :: context
         character(len=:), allocatable :: prefix
-        if (.not. refused) return
         prefix = ""
         if (len(context) > 0) prefix = context // ": "
         call set_status(status, HOLOSYM_OUTSIDE_DOMAIN, prefix // &
             "the system refused the point: " // trim(refusal_reason))
-    end subroutine check_refusal
+    end subroutine report_refusal
 
     !> Relative step of the default central differences: epsilon**(1/3) balances
     !! truncation (step**2) against round-off (epsilon/step). A function rather than a

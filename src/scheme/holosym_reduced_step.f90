@@ -15,40 +15,13 @@ module holosym_reduced_step
     use holosym_reduced_scheme, only: reduced_scheme_t
     use holosym_factors, only: real64_factors_t
     use holosym_newton, only: newton_settings_t, contraction_limit_of, jacobian_cost_of
+    use holosym_newton_policy, only: predicted_within, stagnated, growth_after, renewal_pays, &
+        kept_factors_stale, rate_margin, retry_kept_every, banded_contraction_limit, &
+        banded_jacobian_cost, banded_phase_tolerance, banded_phase_floor, stagnation_rate
     implicit none
     private
 
     public :: reduced_step_t, reduced_report_t
-
-    !> The real64 phase stops when its corrections reach this size relative to the state
-    !! (about 450 real64 epsilons: above its round-off, where it would stagnate) ...
-    real(wp), parameter :: real64_phase_tolerance = 1.0e-13_wp
-    !> ... or stop decreasing below this one.
-    real(wp), parameter :: real64_phase_floor = 1.0e-10_wp
-    !> This step's `newton%contraction_limit` when the setting is left at 0: kept factors
-    !! that contract worse than this per iteration are replaced (banded factors are cheap
-    !! to renew, so the limit is looser than the dense solver's) ...
-    real(wp), parameter, public :: reduced_contraction_limit = 0.1_wp
-    !> ... and so are factors that would need more than this many further corrections.
-    real(dp), parameter :: slow_limit = 4
-    !> With `prefer_fresh`, kept factors are tried again after this many steps.
-    integer, parameter :: retry_kept_every = 8
-    !> At the end of the real64 phase, factors contracting worse than this are replaced
-    !! when the working-precision target is far (see `refresh_pays`).
-    real(wp), parameter :: fresh_rate = 1.0e-12_wp
-    !> This step's `newton%jacobian_cost` when the setting is left negative: forming and
-    !! factoring its real64 Newton matrix costs about one working-precision residual.
-    real(wp), parameter, public :: reduced_jacobian_cost = 1
-    !> Safety factor on the error predicted from the contraction rate, which varies from one
-    !! iteration to the next.
-    real(wp), parameter :: rate_margin = 8
-    !> Corrections within this factor of the target are finished with the factors at hand
-    !! (their rates are dominated by round-off there, and a few more solves cost less than
-    !! new factors).
-    real(wp), parameter :: refactor_floor = 64
-    !> Below the round-off floor, corrections shrinking by less than this factor have
-    !! stagnated.
-    real(wp), parameter :: stagnation_rate = 0.5_wp
 
     !> Outcomes of one Newton iteration (see `next_action`).
     integer, parameter :: ACTION_ITERATE = 0, ACTION_CONVERGED = 1, ACTION_REFACTOR = 2, &
@@ -248,8 +221,8 @@ contains
                     last_rate = 0
                 end if
                 if (lowered) then
-                    target = real64_phase_tolerance
-                    floor = real64_phase_floor
+                    target = banded_phase_tolerance
+                    floor = banded_phase_floor
                 else
                     target = settings%tolerance
                     floor = stagnation
@@ -278,7 +251,7 @@ contains
                     return
                 case (ACTION_CONVERGED)
                     self%x = self%x - real(self%delta, wp)
-                    if (.not. lowered .or. settings%tolerance >= real64_phase_tolerance) then
+                    if (.not. lowered .or. settings%tolerance >= banded_phase_tolerance) then
                         ! Accepted without a confirming residual: the step's results from
                         ! the evaluation at the last iterate, updated to first order. A
                         ! tolerance the real64 phase meets needs no working-precision
@@ -291,12 +264,12 @@ contains
                     end if
                     lowered = .false.
                     if (previous < huge(1.0_wp)) rate = correction / previous
-                    need_factors = refresh_pays(rate, correction, settings%tolerance, &
-                                                jacobian_cost_of(settings, reduced_jacobian_cost))
+                    need_factors = renewal_pays(rate, correction, settings%tolerance, &
+                                                jacobian_cost_of(settings, banded_jacobian_cost))
                     renewed = need_factors
                     ! A rate measured above the real64 round-off predicts the kept factors'.
                     low_rate = 1
-                    if (previous < huge(1.0_wp) .and. correction > 10 * real64_phase_tolerance &
+                    if (previous < huge(1.0_wp) .and. correction > 10 * banded_phase_tolerance &
                         .and. rate < 1) low_rate = rate
                     watch = .true.
                     previous = huge(1.0_wp)
@@ -412,33 +385,6 @@ contains
         self%have_last = .true.
     end subroutine step_accept
 
-    !> At the end of the real64 phase (last correction `correction`, contraction `rate`):
-    !! whether fresh factors here reach `tolerance` in fewer working-precision residuals,
-    !! counting the cost of forming them (`jacobian_cost` residuals).
-    pure logical function refresh_pays(rate, correction, tolerance, jacobian_cost)
-        real(wp), intent(in) :: rate, correction, tolerance, jacobian_cost
-        real(dp) :: keep, renew
-        refresh_pays = .false.
-        if (correction <= tolerance .or. rate <= fresh_rate) return
-        if (rate >= 1) then
-            refresh_pays = .true.
-            return
-        end if
-        keep = log(real(tolerance / correction, dp)) / log(real(rate, dp))
-        renew = log(real(tolerance / correction, dp)) / log(real(fresh_rate, dp))
-        refresh_pays = ceiling(renew) + jacobian_cost < ceiling(keep)
-    end function refresh_pays
-
-    !> True when factors contracting by `rate` would need more than `slow_limit` further
-    !! corrections from `correction` down to `target`: new factors (Newton converging
-    !! quadratically) cost less then.
-    pure logical function slow_iterations(rate, correction, target)
-        real(wp), intent(in) :: rate, correction, target
-        slow_iterations = .false.
-        if (rate <= 0 .or. rate >= 1 .or. correction <= target) return
-        slow_iterations = log(real(target / correction, dp)) / log(real(rate, dp)) > slow_limit
-    end function slow_iterations
-
     !> What to do after a Newton correction of relative size `correction` (`previous`: the
     !! one before with the same factors, huge when none; `last_rate`: the contraction
     !! before that, 0 when none):
@@ -470,27 +416,25 @@ contains
         end if
         if (previous == huge(1.0_wp)) return
         rate = correction / previous
-        if (max(rate, last_rate) < 1) then
-            if (max(rate, last_rate) / (1 - max(rate, last_rate)) * correction <= &
-                target / rate_margin) action = ACTION_CONVERGED
+        if (predicted_within(max(rate, last_rate), correction, target, rate_margin)) then
+            action = ACTION_CONVERGED
+            return
         end if
-        if (action == ACTION_CONVERGED) return
         if (correction <= floor) then
             ! Round-off: corrections this small that no longer decrease are noise of the
             ! residual, not a sign of stale factors.
-            if (rate > stagnation_rate) action = ACTION_CONVERGED
+            if (stagnated(rate, correction, floor, stagnation_rate)) action = ACTION_CONVERGED
             return
         end if
-        if (.not. fresh .and. correction > refactor_floor * target .and. &
-            (rate > contraction_limit_of(settings, reduced_contraction_limit) .or. &
-             slow_iterations(rate, correction, target))) then
-            action = ACTION_REFACTOR
-        else if (rate >= 1) then
-            growth = growth + 1
-            if (growth >= settings%max_growth) action = ACTION_DIVERGED
-        else
-            growth = 0
+        if (.not. fresh) then
+            if (kept_factors_stale(rate, correction, target, &
+                                   contraction_limit_of(settings, banded_contraction_limit))) then
+                action = ACTION_REFACTOR
+                return
+            end if
         end if
+        growth = growth_after(rate, growth, .true.)
+        if (growth >= settings%max_growth) action = ACTION_DIVERGED
     end function next_action
 
 end module holosym_reduced_step

@@ -20,8 +20,11 @@
 !!   working precision falls back to the working-precision LU.
 !! - `settings%presolve` (with the mixed solver): first iterate the system's
 !!   `residual_lowered` (real64 arithmetic, much cheaper than real128) until the
-!!   corrections reach about 1.6e-10 (`lowered_tolerance`), then continue with the
+!!   corrections reach about 1.6e-10 (`presolve_tolerance`), then continue with the
 !!   working-precision residual.
+!!
+!! Every decision of the iteration (converged, stagnated, diverging, refactor) and every
+!! constant behind it is in `holosym_newton_policy`, shared with the reduced step.
 module holosym_newton
     ! IEEE classification for the finiteness tests: it never raises an exception, and used at
     ! module level it adds no per-call floating-point state handling.
@@ -32,6 +35,10 @@ module holosym_newton
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SINGULAR_MATRIX, &
         HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NONFINITE_VALUE
+    use holosym_newton_policy, only: predicted_within, stagnated, growth_after, refactor_pays, &
+        rate_margin, retry_kept_every, dense_contraction_limit, dense_jacobian_cost, &
+        lowered_cost_ratio, presolve_tolerance, presolve_floor, mixed_rate_limit, &
+        mixed_rate_iteration
     implicit none
     private
 
@@ -45,38 +52,6 @@ module holosym_newton
     integer, parameter, public :: LINEAR_SOLVER_MIXED = 2
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
-    !> A freshly factorised real64 Jacobian that contracts worse than this is replaced by
-    !! a working-precision factorisation (the matrix is too ill-conditioned for real64).
-    real(wp), parameter :: mixed_rate_limit = 0.5_wp
-    !> ... judged from this iteration on (earlier rates may reflect a far first guess).
-    integer, parameter :: mixed_rate_iteration = 3
-    !> Simplified Newton: after kept factors proved too stale, later solves refactor at
-    !! their first iterate; every this many solves the kept factors are tried again.
-    integer, parameter :: retry_reuse_every = 8
-    !> Safety factor on the error predicted from the contraction rate (not the plain path).
-    real(wp), parameter :: rate_margin = 8
-    !> The pre-solve (`settings%presolve`) stops when its corrections reach this size, about
-    !! 1.6e-10: well above the real64 round-off of the lowered residual (cond * 1e-16, where
-    !! its iterations stagnate and refactor in vain), and close enough that real64 factors
-    !! taken there finish in two working-precision residuals (error e -> kappa e^2 +
-    !! 1e-16 e); stopping nearer the real64 round-off costs more iterations, stopping
-    !! earlier gains nothing. (eps**(5/8) written with square roots, which every compiler
-    !! folds in real128.)
-    real(wp), parameter :: lowered_tolerance = sqrt(real(epsilon(1.0_dp), wp)) * &
-        sqrt(sqrt(sqrt(real(epsilon(1.0_dp), wp))))
-    !> ... or stop decreasing below this one (real64 round-off of the lowered residual).
-    real(wp), parameter :: lowered_floor = sqrt(real(epsilon(1.0_dp), wp))
-    !> Cost of a lowered residual relative to a working-precision one (roughly, on the
-    !! example systems), for the refactoring decision of the pre-solve.
-    real(wp), parameter :: lowered_cost_ratio = 0.25_wp
-    !> This solver's `contraction_limit` when the setting is left at 0: kept dense factors
-    !! that contract worse than this per iteration are replaced (a dense factorisation
-    !! costs O(n^3): the limit is stricter than the reduced step's banded one).
-    real(wp), parameter, public :: dense_contraction_limit = 0.05_wp
-    !> This solver's `jacobian_cost` when the setting is left negative: forming and
-    !! factoring the dense Newton matrix costs about two working-precision residuals on
-    !! the example systems.
-    real(wp), parameter, public :: dense_jacobian_cost = 2
 
     !> A square nonlinear system: extend it and implement `residual` and `jacobian`.
     type, abstract :: nonlinear_system
@@ -111,12 +86,13 @@ module holosym_newton
         logical :: simplified = .false.
         !> Simplified Newton refactors at the current iterate when a correction is larger
         !! than this fraction of the previous one; 0 (the default) means the solver's own
-        !! value (`dense_contraction_limit` 0.05 here, the reduced step's 0.1).
+        !! value (`dense_contraction_limit` 0.05 here, `banded_contraction_limit` 0.1 in the
+        !! reduced step; `holosym_newton_policy`).
         real(wp) :: contraction_limit = 0
         !> Simplified Newton: cost of a Jacobian and its factorisation, in residual
         !! evaluations; refactoring is chosen when it is predicted to save more than this.
         !! Negative (the default) means the solver's own value (`dense_jacobian_cost` 2
-        !! here, the reduced step's 1).
+        !! here, `banded_jacobian_cost` 1 in the reduced step).
         real(wp) :: jacobian_cost = -1
         !> With the mixed linear solver: iterate `residual_lowered` (real64 arithmetic) to
         !! corrections of about 1.6e-10 before the working-precision residual.
@@ -181,6 +157,23 @@ module holosym_newton
         !! that the next solves depend only on their own inputs.
         procedure :: reset => workspace_reset
     end type newton_workspace_t
+
+    !> The state of one `newton_solve` between its decisions.
+    type :: iteration_t
+        real(wp) :: pivot_tolerance = 0      ! relative pivot threshold of the LU
+        real(wp) :: stagnation = 0           ! round-off floor of the corrections
+        real(wp) :: previous = huge(1.0_wp)  ! last correction of this phase (huge: none)
+        real(wp) :: rate = 1                 ! last correction / the one before
+        real(wp) :: target = 0               ! the phase's tolerance on the corrections
+        real(wp) :: fresh_correction = 0     ! first correction of the factors in use
+        integer :: growth = 0                ! consecutive growing corrections
+        integer :: factor_age = 0            ! iterations of the factors in use (0: older)
+        integer :: phase_iterations = 0      ! iterations of this phase
+        logical :: plain = .false.           ! full Newton, working-precision LU
+        logical :: native_only = .false.     ! working-precision factors only
+        logical :: lowered = .false.         ! in the real64 pre-solve
+        logical :: refactor = .false.        ! factor at the next iterate
+    end type iteration_t
 
     abstract interface
         subroutine residual_interface(self, x, f, status)
@@ -256,7 +249,9 @@ contains
         end if
     end subroutine newton_solve
 
-    !> The iteration of `newton_solve` on a given workspace.
+    !> The iteration of `newton_solve` on a given workspace: a loop of evaluations,
+    !! factorisations and corrections, and after each correction the decisions of
+    !! `holosym_newton_policy` (`converged`, `after_correction`).
     subroutine solve_core(system, x, settings, scale, report, ws, status)
         class(nonlinear_system), intent(inout) :: system
         real(wp), intent(inout) :: x(:)
@@ -265,16 +260,82 @@ contains
         type(newton_report_t), intent(out) :: report
         type(newton_workspace_t), intent(inout) :: ws
         type(holosym_status_t), intent(inout), optional :: status
-        real(wp) :: correction, previous, tolerance, pivot_ratio, rate, rate_floor
-        real(wp) :: fresh_correction, target, cost, stagnation
-        real(dp) :: pivot_ratio_dp
-        integer :: info, iter, growth, nx, factor_age, phase_iterations
-        logical :: plain, refactor, fresh, native_only, lowered, converged
-        type(holosym_status_t) :: eval_status
+        type(iteration_t) :: it
+        type(holosym_status_t) :: local
+        real(wp) :: correction
+        integer :: iter
+        logical :: fresh, converged
 
-        nx = size(x)
-        if (.not. newton_settings_valid(settings, eval_status%message)) then
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, eval_status%message)
+        if (.not. inputs_valid(settings, scale, x, status)) return
+        call ws%setup(size(x))
+        ws%guess = x
+        call start_iteration(settings, ws, it, report)
+        do iter = 1, settings%max_iterations
+            report%iterations = iter
+            if (it%lowered) then
+                report%lowered_evaluations = report%lowered_evaluations + 1
+                call system%residual_lowered(x, ws%rhs(:, 1), local)
+            else
+                report%residual_evaluations = report%residual_evaluations + 1
+                call system%residual(x, ws%rhs(:, 1), local)
+            end if
+            if (local%ok() .and. .not. all_finite(ws%rhs(:, 1))) call set_status(local, &
+                HOLOSYM_NONFINITE_VALUE, "non-finite residual at Newton iteration " // &
+                int_str(iter))
+            fresh = it%refactor .or. .not. settings%simplified
+            if (local%ok() .and. fresh) call factor_at(system, x, ws, it, iter, report, local)
+            if (.not. local%ok()) then
+                call fail(local%code, local%message)
+                return
+            end if
+            correction = newton_correction(ws, x, scale)
+            report%last_correction = correction
+            if (.not. is_finite(correction)) then
+                call fail(HOLOSYM_NEWTON_DIVERGED, "Newton correction not finite at " // &
+                    "iteration " // int_str(iter))
+                return
+            end if
+            converged = phase_converged(it, settings, ws, fresh, correction)
+            if (converged .and. .not. it%lowered) exit
+            call after_correction(it, settings, ws, report, fresh, converged, correction)
+            if (it%growth >= settings%max_growth) then
+                call fail(HOLOSYM_NEWTON_DIVERGED, "Newton corrections grew " // &
+                    int_str(it%growth) // " times in a row (last " // &
+                    real_str(correction) // ") at iteration " // int_str(iter))
+                return
+            end if
+            if (iter == settings%max_iterations) then
+                call fail(HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged after " // &
+                    int_str(iter) // " iterations (last correction " // real_str(correction) // ")")
+                return
+            end if
+        end do
+        ! Kept factors that needed no refresh remain the first choice.
+        if (report%reused_factors .and. report%factorizations == 0) ws%prefer_fresh = .false.
+        call set_status(status, HOLOSYM_SUCCESS, "")
+
+    contains
+
+        subroutine fail(code, message)
+            integer, intent(in) :: code
+            character(len=*), intent(in) :: message
+            x = ws%guess
+            ws%factored = .false.
+            call set_status(status, code, message)
+        end subroutine fail
+
+    end subroutine solve_core
+
+    !> Whether the settings, the scale and the first guess of a solve are valid; else
+    !! HOLOSYM_INVALID_ARGUMENT naming the first that is not.
+    logical function inputs_valid(settings, scale, x, status) result(valid)
+        type(newton_settings_t), intent(in) :: settings
+        real(wp), intent(in) :: scale, x(:)
+        type(holosym_status_t), intent(inout), optional :: status
+        character(len=:), allocatable :: message
+        valid = .false.
+        if (.not. newton_settings_valid(settings, message)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, message)
             return
         end if
         ! Finiteness first: an ordered comparison with a NaN raises 'invalid'.
@@ -292,245 +353,230 @@ contains
                 "NaN or Inf")
             return
         end if
-        call ws%setup(nx)
-        ws%guess = x
-        previous = huge(1.0_wp)
-        growth = 0
-        report%pivot_ratio = huge(1.0_wp)
-        tolerance = settings%pivot_tolerance
-        if (tolerance <= 0) tolerance = default_pivot_tolerance(nx)
-        stagnation = stagnation_floor(settings)
+        valid = .true.
+    end function inputs_valid
+
+    !> The state of a solve before its first iteration: its path (`plain`, mixed, pre-solve)
+    !! and whether it starts with the kept factors of an earlier solve.
+    subroutine start_iteration(settings, ws, it, report)
+        type(newton_settings_t), intent(in) :: settings
+        type(newton_workspace_t), intent(inout) :: ws
+        type(iteration_t), intent(out) :: it
+        type(newton_report_t), intent(inout) :: report
+        integer :: nx
+        nx = size(ws%guess)
+        it%pivot_tolerance = settings%pivot_tolerance
+        if (it%pivot_tolerance <= 0) it%pivot_tolerance = default_pivot_tolerance(nx)
+        it%stagnation = stagnation_floor(settings)
         ! The original full Newton in working precision keeps its exact behaviour.
-        plain = .not. settings%simplified .and. ws%linear_solver == LINEAR_SOLVER_NATIVE
-        native_only = ws%linear_solver == LINEAR_SOLVER_NATIVE
-        refactor = .not. (settings%simplified .and. ws%factored)
-        if (.not. refactor .and. ws%prefer_fresh) then
+        it%plain = .not. settings%simplified .and. ws%linear_solver == LINEAR_SOLVER_NATIVE
+        it%native_only = ws%linear_solver == LINEAR_SOLVER_NATIVE
+        it%refactor = .not. (settings%simplified .and. ws%factored)
+        if (.not. it%refactor .and. ws%prefer_fresh) then
             ! Factors kept from the last solve were too stale then; a Jacobian at the
             ! first iterate saves iterations (retry the kept ones now and then).
             ws%fresh_streak = ws%fresh_streak + 1
-            refactor = ws%fresh_streak < retry_reuse_every
-            if (.not. refactor) ws%fresh_streak = 0
+            it%refactor = ws%fresh_streak < retry_kept_every
+            if (.not. it%refactor) ws%fresh_streak = 0
         end if
-        report%reused_factors = .not. refactor
+        report%pivot_ratio = huge(1.0_wp)
+        report%reused_factors = .not. it%refactor
         if (report%reused_factors) report%pivot_ratio = ws%factor_pivot_ratio
-        lowered = settings%presolve .and. ws%linear_solver == LINEAR_SOLVER_MIXED .and. &
+        it%lowered = settings%presolve .and. ws%linear_solver == LINEAR_SOLVER_MIXED .and. &
             .not. wp_is_double
-        ! Iterations since the factors in use were computed (0: computed in an earlier solve).
-        factor_age = 0
-        fresh_correction = 0
-        phase_iterations = 0
-        do iter = 1, settings%max_iterations
-            report%iterations = iter
-            if (lowered) then
-                report%lowered_evaluations = report%lowered_evaluations + 1
-                call system%residual_lowered(x, ws%rhs(:, 1), eval_status)
+    end subroutine start_iteration
+
+    !> Form and factor the Newton matrix at x (the residual just evaluated there): in real64
+    !! (mixed precision) unless singular or not finite there, else in working precision.
+    !! HOLOSYM_SINGULAR_MATRIX (`report%singular_pivot`), or the code of an evaluation.
+    subroutine factor_at(system, x, ws, it, iter, report, status)
+        class(nonlinear_system), intent(inout) :: system
+        real(wp), intent(in) :: x(:)
+        type(newton_workspace_t), intent(inout) :: ws
+        type(iteration_t), intent(inout) :: it
+        integer, intent(in) :: iter
+        type(newton_report_t), intent(inout) :: report
+        type(holosym_status_t), intent(inout) :: status
+        real(wp) :: pivot_ratio
+        real(dp) :: pivot_ratio_dp
+        integer :: info, nx
+        nx = size(x)
+        report%factorizations = report%factorizations + 1
+        ws%factors_in_dp = .false.
+        info = 0
+        ! Mixed precision: a real64 Jacobian (assembled in real64 arithmetic by systems that
+        ! can), checked, equilibrated and factored in real64.
+        if (.not. it%native_only) then
+            call system%jacobian_lowered(x, ws%jac_dp, status)
+            if (.not. status%ok()) return
+            if (all(ieee_is_finite(ws%jac_dp))) then
+                call equilibrate_rows_dp(ws%jac_dp, ws%row_scale)
+                call lu_factor_dp(ws%jac_dp, ws%pivots, info, &
+                    max(real(it%pivot_tolerance, dp), default_pivot_tolerance_dp(nx)), &
+                    pivot_ratio_dp)
+                ws%factors_in_dp = info == 0
+                pivot_ratio = real(pivot_ratio_dp, wp)
+            end if
+        end if
+        ! Working precision: the plain path, or a matrix singular (or not finite) in real64.
+        if (.not. ws%factors_in_dp) then
+            call system%jacobian(x, ws%jac, status)
+            if (.not. status%ok()) return
+            if (.not. all_finite_matrix(ws%jac)) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "non-finite Jacobian at " // &
+                    "Newton iteration " // int_str(iter))
+                return
+            end if
+            call equilibrate_rows(ws%jac, ws%row_scale)
+            call lu_factor(ws%jac, ws%pivots, info, it%pivot_tolerance, pivot_ratio)
+        end if
+        if (info /= 0) then
+            report%singular_pivot = info
+            report%pivot_ratio = 0
+            call set_status(status, HOLOSYM_SINGULAR_MATRIX, "Newton Jacobian singular at " // &
+                "pivot " // int_str(info) // " of " // int_str(nx) // " (relative " // &
+                "threshold " // real_str(it%pivot_tolerance) // ")")
+            return
+        end if
+        ws%factored = .true.
+        ws%factor_pivot_ratio = pivot_ratio
+        report%pivot_ratio = min(report%pivot_ratio, pivot_ratio)
+        it%refactor = .false.
+    end subroutine factor_at
+
+    !> Apply the Newton correction for the residual in ws%rhs to x; its size relative to
+    !! max(scale, max|x|).
+    real(wp) function newton_correction(ws, x, scale) result(correction)
+        type(newton_workspace_t), intent(inout) :: ws
+        real(wp), intent(inout) :: x(:)
+        real(wp), intent(in) :: scale
+        ws%rhs(:, 1) = ws%rhs(:, 1) * ws%row_scale
+        if (ws%factors_in_dp) then
+            ws%rhs_dp = real(ws%rhs, dp)
+            call lu_solve_dp(ws%jac_dp, ws%pivots, ws%rhs_dp)
+            ws%rhs = real(ws%rhs_dp, wp)
+        else
+            call lu_solve(ws%jac, ws%pivots, ws%rhs)
+        end if
+        x = x - ws%rhs(:, 1)
+        correction = maxval(abs(ws%rhs(:, 1))) / max(scale, maxval(abs(x)))
+    end function newton_correction
+
+    !> After a correction `correction` (`fresh`: with factors formed at this iterate):
+    !! the rate, what the workspace learns (kappa) and whether the phase (pre-solve, or the
+    !! working-precision iteration) has converged: the correction, or the error predicted
+    !! from the rate, within the phase's target; or round-off stagnation.
+    logical function phase_converged(it, settings, ws, fresh, correction) result(converged)
+        type(iteration_t), intent(inout) :: it
+        type(newton_settings_t), intent(in) :: settings
+        type(newton_workspace_t), intent(inout) :: ws
+        logical, intent(in) :: fresh
+        real(wp), intent(in) :: correction
+        real(wp) :: margin
+        ! The pre-solve stops at `presolve_tolerance`; the working-precision phase follows.
+        it%target = settings%tolerance
+        if (it%lowered) it%target = presolve_tolerance
+        ! previous = huge at the start of each phase: no rate yet.
+        it%rate = correction / it%previous
+        it%phase_iterations = it%phase_iterations + 1
+        ! Factors taken at x_k give a first correction ~ |x_k - x*| and then contract by
+        ! kappa |x_k - x*|: learn kappa from the second correction.
+        if (fresh) then
+            it%factor_age = 1
+            it%fresh_correction = correction
+        else if (it%factor_age > 0) then
+            it%factor_age = it%factor_age + 1
+            if (it%factor_age == 2 .and. it%phase_iterations > 1 .and. it%rate < 1) &
+                ws%kappa = it%rate / it%fresh_correction
+        end if
+        converged = correction <= it%target
+        if (it%phase_iterations > 1) then
+            ! Linear contraction (simplified Newton, real64 factors) varies from one
+            ! iteration to the next: trust the predicted error only with a margin.
+            margin = rate_margin
+            if (it%plain) margin = 1
+            converged = converged .or. predicted_within(it%rate, correction, it%target, margin)
+        end if
+        if (it%lowered) then
+            ! Corrections no longer decreasing at this size: real64 round-off.
+            converged = converged .or. stagnated(it%rate, correction, presolve_floor, 1.0_wp)
+        else if (it%plain .or. fresh .or. it%phase_iterations > 1) then
+            ! Corrections that stop decreasing this small are the round-off floor of the
+            ! problem (kept factors contract well above it or are refreshed); so are fresh
+            ! factors that no longer contract there.
+            converged = converged .or. stagnated(it%rate, correction, it%stagnation, 1.0_wp) &
+                .or. (.not. it%plain .and. it%factor_age == 2 .and. &
+                      stagnated(it%rate, correction, it%stagnation, mixed_rate_limit))
+        end if
+    end function phase_converged
+
+    !> The decisions after a correction that did not end the solve: at the end of the
+    !! pre-solve, whether fresh factors pay for the working-precision phase; else the count
+    !! of growing corrections (divergence), a switch to working-precision factors where
+    !! real64 ones contract poorly near the solution, and (simplified Newton) whether to
+    !! refactor at the next iterate.
+    subroutine after_correction(it, settings, ws, report, fresh, converged, correction)
+        type(iteration_t), intent(inout) :: it
+        type(newton_settings_t), intent(in) :: settings
+        type(newton_workspace_t), intent(inout) :: ws
+        type(newton_report_t), intent(in) :: report
+        logical, intent(in) :: fresh, converged
+        real(wp), intent(in) :: correction
+        real(wp) :: rate_floor, cost
+        rate_floor = eps * size(ws%guess)
+        if (ws%factors_in_dp) rate_floor = real(epsilon(1.0_dp), wp) * size(ws%guess)
+        cost = jacobian_cost_of(settings, dense_jacobian_cost)
+        if (converged) then
+            ! End of the pre-solve: the working-precision phase may start with fresh factors
+            ! at this iterate when they are predicted to save residuals there.
+            it%lowered = .false.
+            it%growth = 0
+            if (settings%simplified .and. it%phase_iterations > 1) it%refactor = it%refactor &
+                .or. refactor_pays(it%rate, correction, ws%kappa, rate_floor, &
+                                   settings%tolerance, cost)
+            it%previous = huge(1.0_wp)
+            it%phase_iterations = 0
+            return
+        end if
+        if (it%plain .or. fresh) then
+            if (correction > it%stagnation) then
+                it%growth = growth_after(it%rate, it%growth, .false.)
             else
-                report%residual_evaluations = report%residual_evaluations + 1
-                call system%residual(x, ws%rhs(:, 1), eval_status)
+                it%growth = 0
             end if
-            if (.not. eval_status%ok()) then
-                call fail(eval_status%code, eval_status%message)
-                return
-            end if
-            fresh = refactor .or. .not. settings%simplified
-            if (fresh) then
-                if (.not. all_finite(ws%rhs(:, 1))) then
-                    call fail(HOLOSYM_NONFINITE_VALUE, "non-finite residual at Newton " // &
-                        "iteration " // int_str(iter))
-                    return
-                end if
-                report%factorizations = report%factorizations + 1
-                ws%factors_in_dp = .false.
-                ! Mixed precision: a real64 Jacobian (assembled in real64 arithmetic by
-                ! systems that can), checked, equilibrated and factored in real64.
-                if (.not. native_only) then
-                    call system%jacobian_lowered(x, ws%jac_dp, eval_status)
-                    if (.not. eval_status%ok()) then
-                        call fail(eval_status%code, eval_status%message)
-                        return
-                    end if
-                    if (all(ieee_is_finite(ws%jac_dp))) then
-                        call equilibrate_rows_dp(ws%jac_dp, ws%row_scale)
-                        call lu_factor_dp(ws%jac_dp, ws%pivots, info, &
-                            max(real(tolerance, dp), default_pivot_tolerance_dp(nx)), &
-                            pivot_ratio_dp)
-                        ws%factors_in_dp = info == 0
-                        pivot_ratio = real(pivot_ratio_dp, wp)
-                    end if
-                end if
-                ! Working precision: the plain path, or a matrix singular (or not finite)
-                ! in real64.
-                if (.not. ws%factors_in_dp) then
-                    call system%jacobian(x, ws%jac, eval_status)
-                    if (.not. eval_status%ok()) then
-                        call fail(eval_status%code, eval_status%message)
-                        return
-                    end if
-                    if (.not. all_finite_matrix(ws%jac)) then
-                        call fail(HOLOSYM_NONFINITE_VALUE, "non-finite Jacobian at Newton " // &
-                            "iteration " // int_str(iter))
-                        return
-                    end if
-                    call equilibrate_rows(ws%jac, ws%row_scale)
-                    call lu_factor(ws%jac, ws%pivots, info, tolerance, pivot_ratio)
-                end if
-                if (info /= 0) then
-                    report%singular_pivot = info
-                    report%pivot_ratio = 0
-                    call fail(HOLOSYM_SINGULAR_MATRIX, "Newton Jacobian singular at pivot " // &
-                        int_str(info) // " of " // int_str(nx) // " (relative threshold " // &
-                        real_str(tolerance) // ")")
-                    return
-                end if
-                ws%factored = .true.
-                ws%factor_pivot_ratio = pivot_ratio
-                report%pivot_ratio = min(report%pivot_ratio, pivot_ratio)
-                refactor = .false.
-            else if (.not. all_finite(ws%rhs(:, 1))) then
-                call fail(HOLOSYM_NONFINITE_VALUE, "non-finite residual at Newton iteration " &
-                    // int_str(iter))
-                return
-            end if
-            ws%rhs(:, 1) = ws%rhs(:, 1) * ws%row_scale
-            if (ws%factors_in_dp) then
-                ws%rhs_dp = real(ws%rhs, dp)
-                call lu_solve_dp(ws%jac_dp, ws%pivots, ws%rhs_dp)
-                ws%rhs = real(ws%rhs_dp, wp)
+            ! Full Newton: consecutive fresh real64 factorisations that contract poorly near
+            ! the solution (where nonlinearity cannot explain it): the matrix is too
+            ! ill-conditioned for real64; continue in working precision.
+            if (.not. settings%simplified .and. ws%factors_in_dp .and. &
+                report%iterations >= mixed_rate_iteration .and. it%rate > mixed_rate_limit &
+                .and. it%previous <= presolve_floor .and. correction > it%stagnation) &
+                call use_working_precision(it)
+        else if (it%phase_iterations > 1) then
+            if (it%factor_age == 2 .and. ws%factors_in_dp .and. it%rate > mixed_rate_limit &
+                .and. it%fresh_correction <= presolve_floor .and. &
+                correction > it%stagnation) then
+                ! Fresh real64 factors taken near the solution contract poorly.
+                call use_working_precision(it)
             else
-                call lu_solve(ws%jac, ws%pivots, ws%rhs)
+                ! Simplified Newton: refactor here when the kept factors contract poorly or
+                ! fresh ones are predicted to need fewer evaluations in all.
+                if (it%lowered) cost = cost / lowered_cost_ratio
+                it%refactor = it%rate > contraction_limit_of(settings, dense_contraction_limit) &
+                    .or. refactor_pays(it%rate, correction, ws%kappa, rate_floor, it%target, &
+                                       cost)
+                if (it%refactor .and. report%reused_factors) ws%prefer_fresh = .true.
             end if
-            x = x - ws%rhs(:, 1)
-            correction = maxval(abs(ws%rhs(:, 1))) / max(scale, maxval(abs(x)))
-            report%last_correction = correction
-            if (.not. is_finite(correction)) then
-                call fail(HOLOSYM_NEWTON_DIVERGED, "Newton correction not finite at " // &
-                    "iteration " // int_str(iter))
-                return
-            end if
-            ! The pre-solve stops at `lowered_tolerance`; the working-precision phase follows.
-            target = settings%tolerance
-            if (lowered) target = lowered_tolerance
-            ! With contraction rate theta the remaining error is about theta/(1-theta) * dx
-            ! (previous = huge at the start of each phase: no rate yet).
-            rate = correction / previous
-            phase_iterations = phase_iterations + 1
-            ! Factors taken at x_k give a first correction ~ |x_k - x*| and then contract
-            ! by kappa |x_k - x*|: learn kappa from the second correction.
-            if (fresh) then
-                factor_age = 1
-                fresh_correction = correction
-            else if (factor_age > 0) then
-                factor_age = factor_age + 1
-                if (factor_age == 2 .and. phase_iterations > 1 .and. rate < 1) &
-                    ws%kappa = rate / fresh_correction
-            end if
-            converged = correction <= target
-            if (phase_iterations > 1 .and. rate < 1) then
-                ! Linear contraction (simplified Newton, real64 factors) varies from one
-                ! iteration to the next: trust the predicted error only with a margin.
-                if (plain) then
-                    converged = converged .or. rate / (1 - rate) * correction <= target
-                else
-                    converged = converged .or. rate / (1 - rate) * correction <= &
-                        target / rate_margin
-                end if
-            end if
-            if (lowered) then
-                ! Corrections no longer decreasing at this size: real64 round-off.
-                converged = converged .or. (correction >= previous .and. &
-                                            correction <= lowered_floor)
-            else if (plain .or. fresh .or. phase_iterations > 1) then
-                ! Corrections that stop decreasing this small are the round-off floor of the
-                ! problem (kept factors contract well above it or are refreshed); so are
-                ! fresh factors that no longer contract there.
-                converged = converged .or. (correction <= stagnation .and. &
-                    (correction >= previous .or. (.not. plain .and. factor_age == 2 .and. &
-                                                  rate > mixed_rate_limit)))
-            end if
-            if (ws%factors_in_dp) then
-                rate_floor = real(epsilon(1.0_dp), wp) * nx
-            else
-                rate_floor = eps * nx
-            end if
-            if (converged .and. .not. lowered) exit
-            if (converged) then
-                ! End of the pre-solve: the working-precision phase may start with fresh
-                ! factors at this iterate when they are predicted to save residuals there.
-                lowered = .false.
-                growth = 0
-                if (settings%simplified .and. phase_iterations > 1) refactor = refactor .or. &
-                    refactor_pays(rate, correction, ws%kappa, rate_floor, settings%tolerance, &
-                                  jacobian_cost_of(settings, dense_jacobian_cost))
-            else if (plain .or. fresh) then
-                if (correction > previous .and. correction > stagnation) then
-                    growth = growth + 1
-                    if (growth >= settings%max_growth) then
-                        call fail(HOLOSYM_NEWTON_DIVERGED, "Newton corrections grew " // &
-                            int_str(growth) // " times in a row (last " // &
-                            real_str(correction) // ") at iteration " // int_str(iter))
-                        return
-                    end if
-                else
-                    growth = 0
-                end if
-                ! Full Newton: consecutive fresh real64 factorisations that contract poorly
-                ! near the solution (where nonlinearity cannot explain it): the matrix is
-                ! too ill-conditioned for real64; continue in working precision.
-                if (.not. settings%simplified .and. ws%factors_in_dp .and. &
-                    iter >= mixed_rate_iteration .and. rate > mixed_rate_limit .and. &
-                    previous <= lowered_floor .and. correction > stagnation) &
-                    call use_working_precision()
-            else if (phase_iterations > 1) then
-                if (factor_age == 2 .and. ws%factors_in_dp .and. rate > mixed_rate_limit &
-                    .and. fresh_correction <= lowered_floor .and. &
-                    correction > stagnation) then
-                    ! Fresh real64 factors taken near the solution contract poorly.
-                    call use_working_precision()
-                else
-                    ! Simplified Newton: refactor here when the kept factors contract poorly
-                    ! or fresh ones are predicted to need fewer evaluations in all.
-                    cost = jacobian_cost_of(settings, dense_jacobian_cost)
-                    if (lowered) cost = cost / lowered_cost_ratio
-                    refactor = rate > contraction_limit_of(settings, dense_contraction_limit) &
-                        .or. refactor_pays(rate, &
-                        correction, ws%kappa, rate_floor, target, cost)
-                    if (refactor .and. report%reused_factors) ws%prefer_fresh = .true.
-                end if
-            end if
-            if (iter == settings%max_iterations) then
-                call fail(HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged after " // &
-                    int_str(iter) // " iterations (last correction " // real_str(correction) // ")")
-                return
-            end if
-            if (converged) then
-                previous = huge(1.0_wp)
-                phase_iterations = 0
-                cycle
-            end if
-            previous = correction
-        end do
-        ! Kept factors that needed no refresh remain the first choice.
-        if (report%reused_factors .and. report%factorizations == 0) ws%prefer_fresh = .false.
-        call set_status(status, HOLOSYM_SUCCESS, "")
+        end if
+        it%previous = correction
+    end subroutine after_correction
 
-    contains
-
-        !> Continue with working-precision factors (and residuals) from the next iteration.
-        subroutine use_working_precision()
-            native_only = .true.
-            lowered = .false.
-            refactor = .true.
-        end subroutine use_working_precision
-
-        subroutine fail(code, message)
-            integer, intent(in) :: code
-            character(len=*), intent(in) :: message
-            x = ws%guess
-            ws%factored = .false.
-            call set_status(status, code, message)
-        end subroutine fail
-
-    end subroutine solve_core
+    !> Continue with working-precision factors (and residuals) from the next iteration.
+    pure subroutine use_working_precision(it)
+        type(iteration_t), intent(inout) :: it
+        it%native_only = .true.
+        it%lowered = .false.
+        it%refactor = .true.
+    end subroutine use_working_precision
 
     !> The stagnation level a solve uses: `settings%stagnation_level`, or epsilon**(2/3)
     !! when that is <= 0 (the default).
@@ -659,32 +705,6 @@ contains
             end if
         end do
     end subroutine equilibrate_rows_dp
-
-    !> Whether simplified Newton should refactor at the current iterate. With factors
-    !! contracting by `rate`, the error left after a correction of size `correction` is
-    !! e = rate/(1-rate) correction and reaching `tolerance` takes log(tolerance/e)/log(rate)
-    !! more residuals; fresh factors at this iterate would contract by about
-    !! max(kappa e, rate_floor) for the price of `jacobian_cost` residuals.
-    pure logical function refactor_pays(rate, correction, kappa, rate_floor, tolerance, &
-                                        jacobian_cost)
-        real(wp), intent(in) :: rate          !! contraction of the kept factors, > 0
-        real(wp), intent(in) :: correction    !! size of the last correction
-        real(wp), intent(in) :: kappa         !! quadratic-convergence constant (0: unknown)
-        real(wp), intent(in) :: rate_floor    !! best contraction the linear solver allows
-        real(wp), intent(in) :: tolerance     !! convergence tolerance on the correction
-        real(wp), intent(in) :: jacobian_cost !! Jacobian + factorisation, in residuals
-        real(wp) :: remaining, fresh_rate
-        refactor_pays = .false.
-        if (kappa <= 0 .or. rate <= 0 .or. rate >= 1) return
-        remaining = rate / (1 - rate) * correction
-        if (remaining <= tolerance) return
-        fresh_rate = max(kappa * remaining, rate_floor)
-        if (fresh_rate >= rate) return
-        ! Iteration counts need no working-precision logarithms (slow in real128).
-        refactor_pays = jacobian_cost + log(real(tolerance / remaining, dp)) &
-            / log(real(fresh_rate, dp)) < log(real(tolerance / remaining, dp)) &
-            / log(real(rate, dp))
-    end function refactor_pays
 
     !> True when no entry is NaN or infinite (never raises an IEEE exception).
     pure logical function all_finite(values)

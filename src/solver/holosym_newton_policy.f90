@@ -1,0 +1,191 @@
+!> category: internal module (use holosym)
+!! The Newton policy: every decision of a Newton iteration (converged? stagnated?
+!! diverging? refactor? when does the real64 phase end?) as a small pure function of the
+!! sizes of the corrections, with every constant it uses named here beside its reason.
+!! Both Newton iterations of the library take their decisions here: `newton_solve`
+!! (dense factors, working precision or real64) and the reduced step (real64 factors,
+!! dense or banded; `holosym_reduced_step`). The decisions know no scheme: only
+!! corrections (sizes relative to the state), their ratios (contraction rates), targets
+!! and the kind of factors.
+module holosym_newton_policy
+    use holosym_kinds, only: wp, dp
+    implicit none
+    private
+
+    public :: corrections_needed, predicted_within, stagnated, growth_after, &
+        refactor_pays, renewal_pays, slow_iterations, kept_factors_stale
+
+    !> Safety factor on the error predicted from a linear contraction rate (simplified
+    !! Newton, real64 factors), which varies from one iteration to the next.
+    real(wp), parameter, public :: rate_margin = 8
+    !> After kept factors proved too stale, solves refactor at their first iterate; every
+    !! this many solves the kept factors are tried again.
+    integer, parameter, public :: retry_kept_every = 8
+
+    !> Dense factors that contract worse than this per iteration are replaced (the
+    !! default `contraction_limit` of `newton_solve`: a dense factorisation costs O(n^3),
+    !! so the limit is strict) ...
+    real(wp), parameter, public :: dense_contraction_limit = 0.05_wp
+    !> ... and banded or small real64 factors (the reduced step's) beyond this one: they
+    !! are cheap to renew, but each renewal also costs a real64 Newton matrix.
+    real(wp), parameter, public :: banded_contraction_limit = 0.1_wp
+    !> Forming and factoring a dense Newton matrix costs about two working-precision
+    !! residuals on the example systems (the default `jacobian_cost` of `newton_solve`) ...
+    real(wp), parameter, public :: dense_jacobian_cost = 2
+    !> ... and the reduced step's real64 matrix about one.
+    real(wp), parameter, public :: banded_jacobian_cost = 1
+    !> Cost of a lowered (real64) residual relative to a working-precision one (roughly, on
+    !! the example systems), for the refactoring decision during a real64 phase.
+    real(wp), parameter, public :: lowered_cost_ratio = 0.25_wp
+
+    !> The pre-solve of `newton_solve` (dense factors, `settings%presolve`) stops when its
+    !! corrections reach this size, about 1.6e-10: well above the real64 round-off of the
+    !! lowered residual (cond * 1e-16, where its iterations stagnate and refactor in vain),
+    !! and close enough that real64 factors taken there finish in two working-precision
+    !! residuals (error e -> kappa e^2 + 1e-16 e); stopping nearer the real64 round-off
+    !! costs more iterations, stopping earlier gains nothing. (eps**(5/8) written with
+    !! square roots, which every compiler folds in real128.)
+    real(wp), parameter, public :: presolve_tolerance = sqrt(real(epsilon(1.0_dp), wp)) * &
+        sqrt(sqrt(sqrt(real(epsilon(1.0_dp), wp))))
+    !> ... or stop decreasing below this one (real64 round-off of the lowered residual).
+    real(wp), parameter, public :: presolve_floor = sqrt(real(epsilon(1.0_dp), wp))
+    !> The reduced step's real64 phase goes on to corrections of this size (about 450
+    !! real64 epsilons: above its round-off, where it would stagnate): its equations are
+    !! better conditioned (momenta eliminated, rows equilibrated), and a real64 phase that
+    !! ends here leaves one or two working-precision corrections ...
+    real(wp), parameter, public :: banded_phase_tolerance = 1.0e-13_wp
+    !> ... or stops when they stop decreasing below this one.
+    real(wp), parameter, public :: banded_phase_floor = 1.0e-10_wp
+    !> A freshly factorised real64 Jacobian of `newton_solve` that contracts worse than
+    !! this is replaced by a working-precision factorisation (too ill-conditioned for
+    !! real64) ...
+    real(wp), parameter, public :: mixed_rate_limit = 0.5_wp
+    !> ... judged from this iteration on (earlier rates may reflect a far first guess).
+    integer, parameter, public :: mixed_rate_iteration = 3
+    !> The contraction that renewed real64 factors achieve at the end of the reduced
+    !! step's real64 phase (their error is then real64 round-off), for `renewal_pays`.
+    real(wp), parameter, public :: renewed_rate = 1.0e-12_wp
+    !> Kept factors that would need more than this many further corrections are replaced
+    !! (Newton with new factors converges quadratically).
+    real(dp), parameter, public :: slow_limit = 4
+    !> Corrections within this factor of the target are finished with the factors at hand
+    !! (their rates are dominated by round-off there, and a few more solves cost less than
+    !! new factors).
+    real(wp), parameter, public :: refactor_floor = 64
+    !> Below the round-off floor, corrections shrinking by less than this factor (the
+    !! reduced step) have stagnated; `newton_solve` asks for no decrease at all (1).
+    real(wp), parameter, public :: stagnation_rate = 0.5_wp
+
+contains
+
+    !> How many corrections contracting by `rate` (0 < rate < 1) take an error `error` down
+    !! to `target`, as a real number: log(target / error) / log(rate). In real64
+    !! arithmetic (working-precision logarithms are slow in real128).
+    pure real(dp) function corrections_needed(rate, error, target) result(count)
+        real(wp), intent(in) :: rate   !! contraction per correction
+        real(wp), intent(in) :: error  !! the error now
+        real(wp), intent(in) :: target !! the error wanted
+        count = log(real(target / error, dp)) / log(real(rate, dp))
+    end function corrections_needed
+
+    !> Whether the error left after a correction of size `correction`, predicted from the
+    !! contraction `rate` as rate / (1 - rate) correction, is within `target / margin`
+    !! (`margin` 1 for full Newton, `rate_margin` for linear contraction; powers of two).
+    !! False when the corrections do not contract (rate >= 1).
+    pure logical function predicted_within(rate, correction, target, margin) result(within)
+        real(wp), intent(in) :: rate, correction, target, margin
+        within = .false.
+        if (rate >= 1) return
+        ! Scaling by the margin, a power of two, is exact on either side: multiplying
+        ! the error by it costs no division.
+        within = rate / (1 - rate) * correction * margin <= target
+    end function predicted_within
+
+    !> Whether a correction of size `correction` at or below the round-off `floor` that
+    !! shrank by no more than `least` (rate = correction / previous >= least) is round-off
+    !! noise: the iteration can do no better.
+    pure logical function stagnated(rate, correction, floor, least)
+        real(wp), intent(in) :: rate, correction, floor, least
+        stagnated = correction <= floor .and. rate >= least
+    end function stagnated
+
+    !> The count of consecutive growing corrections after one with contraction `rate`:
+    !! `growth` + 1 when it grew (rate > 1, or >= 1 when `equal_grows`), else 0. A solve
+    !! has diverged when the count reaches `max_growth`.
+    pure integer function growth_after(rate, growth, equal_grows) result(next)
+        real(wp), intent(in) :: rate
+        integer, intent(in) :: growth
+        logical, intent(in) :: equal_grows
+        next = 0
+        if (rate > 1 .or. (equal_grows .and. rate >= 1)) next = growth + 1
+    end function growth_after
+
+    !> Whether simplified Newton should refactor at the current iterate (`newton_solve`).
+    !! With factors contracting by `rate`, the error left after a correction of size
+    !! `correction` is e = rate/(1-rate) correction and reaching `tolerance` takes
+    !! `corrections_needed(rate, e, tolerance)` more residuals; fresh factors at this
+    !! iterate would contract by about max(kappa e, rate_floor) for the price of
+    !! `jacobian_cost` residuals.
+    pure logical function refactor_pays(rate, correction, kappa, rate_floor, tolerance, &
+                                        jacobian_cost)
+        real(wp), intent(in) :: rate          !! contraction of the kept factors, > 0
+        real(wp), intent(in) :: correction    !! size of the last correction
+        real(wp), intent(in) :: kappa         !! quadratic-convergence constant (0: unknown)
+        real(wp), intent(in) :: rate_floor    !! best contraction the linear solver allows
+        real(wp), intent(in) :: tolerance     !! convergence tolerance on the correction
+        real(wp), intent(in) :: jacobian_cost !! Jacobian + factorisation, in residuals
+        real(wp) :: remaining, fresh_rate
+        real(dp) :: reach
+        refactor_pays = .false.
+        if (kappa <= 0 .or. rate <= 0 .or. rate >= 1) return
+        remaining = rate / (1 - rate) * correction
+        if (remaining <= tolerance) return
+        fresh_rate = max(kappa * remaining, rate_floor)
+        if (fresh_rate >= rate) return
+        ! corrections_needed for both rates, sharing the logarithm of the reach.
+        reach = log(real(tolerance / remaining, dp))
+        refactor_pays = jacobian_cost + reach / log(real(fresh_rate, dp)) < &
+            reach / log(real(rate, dp))
+    end function refactor_pays
+
+    !> At the end of the reduced step's real64 phase (last correction `correction`,
+    !! contraction `rate`): whether factors renewed there (contracting by `renewed_rate`)
+    !! reach `tolerance` in fewer whole working-precision residuals than the kept ones,
+    !! counting `jacobian_cost` residuals for renewing them.
+    pure logical function renewal_pays(rate, correction, tolerance, jacobian_cost)
+        real(wp), intent(in) :: rate, correction, tolerance, jacobian_cost
+        real(dp) :: reach
+        renewal_pays = .false.
+        if (correction <= tolerance .or. rate <= renewed_rate) return
+        if (rate >= 1) then
+            renewal_pays = .true.
+            return
+        end if
+        ! corrections_needed for both rates, sharing the logarithm of the reach.
+        reach = log(real(tolerance / correction, dp))
+        renewal_pays = ceiling(reach / log(real(renewed_rate, dp))) + jacobian_cost < &
+            ceiling(reach / log(real(rate, dp)))
+    end function renewal_pays
+
+    !> True when factors contracting by `rate` would need more than `slow_limit` further
+    !! corrections from `correction` down to `target`: new factors cost less then.
+    pure logical function slow_iterations(rate, correction, target)
+        real(wp), intent(in) :: rate, correction, target
+        slow_iterations = .false.
+        if (rate <= 0 .or. rate >= 1 .or. correction <= target) return
+        slow_iterations = corrections_needed(rate, correction, target) > slow_limit
+    end function slow_iterations
+
+    !> Whether factors formed at an earlier iterate should be replaced after a correction
+    !! `correction` contracting by `rate` towards `target` (the reduced step): far from the
+    !! target (more than `refactor_floor` times it) and contracting worse than `limit` or
+    !! too slowly to reach it soon.
+    pure logical function kept_factors_stale(rate, correction, target, limit) result(stale)
+        real(wp), intent(in) :: rate, correction, target, limit
+        stale = .false.
+        if (correction <= refactor_floor * target) return
+        stale = rate > limit
+        if (.not. stale) stale = slow_iterations(rate, correction, target)
+    end function kept_factors_stale
+
+end module holosym_newton_policy
