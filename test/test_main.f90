@@ -34,6 +34,7 @@ program holosym_tests
     use test_system_check, only: system_check_tests
     use test_nan_sweep, only: nan_sweep_tests
     use test_refusal, only: refusal_tests
+    use test_newton, only: newton_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed, skipped
@@ -77,6 +78,7 @@ program holosym_tests
     call run_suite("checks", system_check_tests(), filter, passed, failed, skipped)
     call run_suite("nan_sweep", nan_sweep_tests(), filter, passed, failed, skipped)
     call run_suite("refusal", refusal_tests(), filter, passed, failed, skipped)
+    call run_suite("newton", newton_tests(), filter, passed, failed, skipped)
     if (passed + failed + skipped == 0) then
         write (error_unit, '(a)') "holosym_tests: no test matches '" // trim(filter) // &
             "' (a test is selected when its suite/name contains the filter, e.g. scheme/)"
