@@ -533,8 +533,8 @@ contains
         type(holosym_status_t), intent(inout) :: status
         integer :: c, a
         call self%sys%hessian(q, self%p_zero, self%hqq, self%hqp, self%hpp)
-        if (.not. (all(is_finite(self%hqq)) .and. all(is_finite(self%hqp)) .and. &
-                   all(is_finite(self%hpp)))) then
+        if (.not. (all(ieee_is_finite(self%hqq)) .and. all(ieee_is_finite(self%hqp)) .and. &
+                   all(ieee_is_finite(self%hpp)))) then
             call set_status(status, HOLOSYM_NONFINITE_VALUE, "hessian returned NaN or Inf")
             return
         end if
@@ -589,7 +589,7 @@ contains
         real(wp), intent(in) :: q(:)
         type(holosym_status_t), intent(inout) :: status
         call self%sys%constraint_hessian(q, self%phi_hess)
-        if (.not. all(is_finite(self%phi_hess))) call set_status(status, &
+        if (.not. all(ieee_is_finite(self%phi_hess))) call set_status(status, &
             HOLOSYM_NONFINITE_VALUE, "constraint_hessian returned NaN or Inf")
     end subroutine constraint_hessian_checked
 

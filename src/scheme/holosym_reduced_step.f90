@@ -7,6 +7,9 @@
 !! the contraction rate says the result is within the tolerance: the step results are
 !! then updated to first order through the difference matrix of p_b - p_a.
 module holosym_reduced_step
+    ! The intrinsic classification (inlined; at module level it adds no per-call
+    ! floating-point state handling) for the checks inside every iteration.
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp, wp_is_double
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
         HOLOSYM_SUCCESS, HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, &
@@ -26,6 +29,22 @@ module holosym_reduced_step
     !> Outcomes of one Newton iteration (see `next_action`).
     integer, parameter :: ACTION_ITERATE = 0, ACTION_CONVERGED = 1, ACTION_REFACTOR = 2, &
         ACTION_DIVERGED = 3
+
+    !> What one solve carries between its iterations and the procedures they call.
+    type :: solve_t
+        type(newton_settings_t) :: settings !! Newton's settings
+        real(wp) :: scale = 1       !! size of the state (corrections are relative to it)
+        real(wp) :: h = 0           !! the step size
+        real(wp) :: stagnation = 0  !! round-off floor of the working-precision corrections
+        !> First working-precision correction after the real64 phase (0: none yet), and
+        !! whether the first corrections are being watched (`first_corrections`).
+        real(wp) :: first = 0
+        logical :: watch = .false.
+        !> Factors were renewed at the end of the real64 phase.
+        logical :: renewed = .false.
+        !> Contraction of the kept factors measured in the real64 phase (1: none).
+        real(wp) :: low_rate = 1
+    end type solve_t
 
     !> Work of one step.
     type :: reduced_report_t
@@ -124,19 +143,18 @@ contains
         real(wp), intent(out) :: dq(:), dpb(:)
         type(reduced_report_t), intent(out) :: report
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: scale
+        type(solve_t) :: run
         integer :: residuals0, lowered0
-        ! First working-precision correction after factors renewed at the end of the real64
-        ! phase (0: none yet), and whether it is being watched.
-        real(wp) :: first, low_rate
-        logical :: renewed, watch
 
         residuals0 = self%scheme%residuals
         lowered0 = self%scheme%lowered_residuals
         call self%scheme%set_step(sys, q, p, h, status)
         if (.not. status%ok()) return
-        scale = max(maxval(abs(q)), maxval(abs(p)))
-        if (scale <= 0) scale = 1
+        run%settings = settings
+        run%h = h
+        run%stagnation = stagnation
+        run%scale = max(maxval(abs(q)), maxval(abs(p)))
+        if (run%scale <= 0) run%scale = 1
         if (h /= self%factors_h) self%factors%factored = .false.
         if (self%prefer_fresh) then
             self%fresh_streak = self%fresh_streak + 1
@@ -150,14 +168,14 @@ contains
             self%x_guess = 0
         end if
         self%x = self%x_guess
-        call newton(status)
+        call iterate(self, run, dq, dpb, report, status)
         if (.not. status%ok() .and. .not. is_system_fault(status%code)) then
             ! Kept factors may be stale, or the extrapolation poor: fresh factors from the
             ! constant guess.
             self%factors%factored = .false.
             self%extrapolated = .false.
             self%x = 0
-            call newton(status)
+            call iterate(self, run, dq, dpb, report, status)
         end if
         report%residuals = self%scheme%residuals - residuals0
         report%lowered_residuals = self%scheme%lowered_residuals - lowered0
@@ -165,198 +183,226 @@ contains
         if (.not. status%ok()) then
             self%factors%factored = .false.
             self%have_last = .false.
-            return
         end if
+    end subroutine step_solve
 
-    contains
+    !> Simplified Newton from self%x (the decisions: `next_action`); on success x is the
+    !! solution and dq, dpb the step's results.
+    subroutine iterate(self, run, dq, dpb, report, status)
+        class(reduced_step_t), intent(inout) :: self
+        type(solve_t), intent(inout) :: run
+        real(wp), intent(out) :: dq(:), dpb(:)
+        type(reduced_report_t), intent(inout) :: report
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: correction, previous, target, floor, rate, last_rate
+        integer :: iter, growth, action
+        logical :: lowered, fresh, kept, need_factors
 
-        !> Simplified Newton from self%x; on success x is the solution and dq, dpb the
-        !! step's results.
-        subroutine newton(status)
-            type(holosym_status_t), intent(out) :: status
-            real(wp) :: correction, previous, target, floor, rate, last_rate
-            integer :: iter, growth, action
-            logical :: lowered, fresh, kept, need_factors
-
-            lowered = .not. wp_is_double
-            previous = huge(1.0_wp)
-            growth = 0
-            fresh = .false.
-            rate = 1
-            last_rate = 0
-            kept = self%factors%factored
-            need_factors = .not. self%factors%factored
-            renewed = .false.
-            watch = .false.
-            first = 0
-            low_rate = 1
-            do iter = 1, settings%max_iterations
-                report%iterations = report%iterations + 1
-                ! The residual at x; new factors, when due, from the same evaluation.
-                ! An iterate or residual beyond the range of real64 (h far beyond the
-                ! system's scale) cannot be lowered: the iteration has diverged.
-                if (lowered) then
-                    if (.not. fits_real64(self%x)) then
-                        call beyond_real64("iterate", status)
-                        return
-                    end if
-                    self%x_low = real(self%x, dp)
-                    call self%scheme%residual_lowered(self%x_low, self%f_low, status)
-                else
-                    call self%scheme%residual(self%x, self%f, status)
-                    if (.not. status%ok()) return
-                    if (.not. fits_real64(self%f)) then
-                        call beyond_real64("residual", status)
-                        return
-                    end if
-                    self%f_low = real(self%f, dp)
-                end if
-                if (.not. status%ok()) return
-                if (need_factors) then
-                    call refactor(lowered, status)
-                    if (.not. status%ok()) return
-                    fresh = .true.
-                    need_factors = .false.
-                    previous = huge(1.0_wp)
-                    last_rate = 0
-                end if
-                if (lowered) then
-                    target = banded_phase_tolerance
-                    floor = banded_phase_floor
-                else
-                    target = settings%tolerance
-                    floor = stagnation
-                end if
-                call correct(correction)
-                action = next_action(correction, previous, last_rate, target, floor, fresh, &
-                                     settings, growth)
-                if (watch) call first_corrections(correction, action)
-                if (action == ACTION_REFACTOR) then
-                    ! Kept factors contract poorly: fresh ones at x, same residual.
-                    if (kept) self%prefer_fresh = .true.
-                    call refactor(lowered, status)
-                    if (.not. status%ok()) return
-                    fresh = .true.
-                    previous = huge(1.0_wp)
-                    last_rate = 0
-                    call correct(correction)
-                    action = next_action(correction, previous, last_rate, target, floor, &
-                                         fresh, settings, growth)
-                end if
-                select case (action)
-                case (ACTION_DIVERGED)
-                    call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton corrections " // &
-                        "grew " // int_str(growth) // " times in a row (last " // &
-                        real_str(correction) // ") at iteration " // int_str(iter))
-                    return
-                case (ACTION_CONVERGED)
-                    self%x = self%x - real(self%delta, wp)
-                    if (.not. lowered .or. settings%tolerance >= banded_phase_tolerance) then
-                        ! Accepted without a confirming residual: the step's results from
-                        ! the evaluation at the last iterate, updated to first order. A
-                        ! tolerance the real64 phase meets needs no working-precision
-                        ! residual at all.
-                        call self%scheme%increments(dq, dpb, lowered)
-                        call self%scheme%linear_dp_change(-self%delta, self%f(1:size(dpb)))
-                        dq = self%x(self%scheme%layout%z_col(:, self%scheme%order_m))
-                        dpb = dpb + self%f(1:size(dpb))
-                        return
-                    end if
-                    lowered = .false.
-                    if (previous < huge(1.0_wp)) rate = correction / previous
-                    need_factors = renewal_pays(rate, correction, settings%tolerance, &
-                                                jacobian_cost_of(settings, banded_jacobian_cost))
-                    renewed = need_factors
-                    ! A rate measured above the real64 round-off predicts the kept factors'.
-                    low_rate = 1
-                    if (previous < huge(1.0_wp) .and. correction > 10 * banded_phase_tolerance &
-                        .and. rate < 1) low_rate = rate
-                    watch = .true.
-                    previous = huge(1.0_wp)
-                    last_rate = 0
-                    cycle
-                end select
-                self%x = self%x - real(self%delta, wp)
-                if (previous < huge(1.0_wp)) last_rate = correction / previous
-                previous = correction
-                ! Factors formed at an earlier iterate are no longer fresh: a poor rate then
-                ! calls for new ones at the current iterate (full Newton).
-                fresh = .false.
-            end do
-            call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged " // &
-                "after " // int_str(settings%max_iterations) // " iterations")
-        end subroutine newton
-
-        !> HOLOSYM_NEWTON_DIVERGED: the `what` of the iteration left the range of real64.
-        subroutine beyond_real64(what, status)
-            character(len=*), intent(in) :: what
-            type(holosym_status_t), intent(out) :: status
-            call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton diverged: the " // &
-                what // " left the range of real64 at iteration " // &
-                int_str(report%iterations))
-        end subroutine beyond_real64
-
-        !> The first working-precision corrections: the first is accepted when a known
-        !! contraction predicts the tolerance met: that of the real64 phase when its factors
-        !! are kept, or `learned_rate` for factors renewed at its end (the second correction
-        !! after a renewal measures it again; every 16th step does so).
-        subroutine first_corrections(correction, action)
-            real(wp), intent(in) :: correction
-            integer, intent(inout) :: action
-            real(wp) :: known
-            if (first == 0) then
-                first = correction
-                if (renewed) then
-                    self%steps_since_measured = self%steps_since_measured + 1
-                    known = self%learned_rate
-                    if (self%steps_since_measured >= 16) known = 1
-                else
-                    known = low_rate
-                end if
-                if (action == ACTION_ITERATE .and. known < 1) then
-                    if (rate_margin * known / (1 - known) * correction <= settings%tolerance) &
-                        action = ACTION_CONVERGED
-                end if
-            else if (renewed) then
-                if (first > 0) self%learned_rate = correction / first
-                self%steps_since_measured = 0
-                renewed = .false.
-            end if
-            if (first /= correction) watch = renewed
-        end subroutine first_corrections
-
-        !> delta = the Newton correction for the residual f_low; its size relative to the
-        !! state.
-        subroutine correct(correction)
-            real(wp), intent(out) :: correction
-            self%delta = self%f_low
-            call self%factors%solve(self%delta)
-            correction = maxval(abs(self%delta)) / scale
-        end subroutine correct
-
-        !> Form and factor the Newton matrix at self%x from the evaluation just made there
-        !! (real64 or working precision).
-        subroutine refactor(lowered, status)
-            logical, intent(in) :: lowered
-            type(holosym_status_t), intent(out) :: status
-            integer :: info
-            call self%scheme%jacobian(lowered, status)
+        lowered = .not. wp_is_double
+        previous = huge(1.0_wp)
+        growth = 0
+        fresh = .false.
+        rate = 1
+        last_rate = 0
+        kept = self%factors%factored
+        need_factors = .not. self%factors%factored
+        run%renewed = .false.
+        run%watch = .false.
+        run%first = 0
+        run%low_rate = 1
+        do iter = 1, run%settings%max_iterations
+            report%iterations = report%iterations + 1
+            ! The residual at x; new factors, when due, from the same evaluation.
+            call evaluate(self, lowered, report%iterations, status)
             if (.not. status%ok()) return
-            call self%factors%factor(self%scheme%layout%jac_start, self%scheme%layout%jac_col, &
-                                     self%scheme%jac_values, info, &
-                                     real(settings%pivot_tolerance, dp))
-            report%factorizations = report%factorizations + 1
-            if (info /= 0) then
-                self%singular_x = self%x
-                self%have_singular_x = .true.
-                call set_status(status, HOLOSYM_SINGULAR_MATRIX, "reduced Newton matrix " // &
-                    "singular at pivot " // int_str(info) // " of " // int_str(self%scheme%nx))
+            if (need_factors) then
+                call refactor(self, run, lowered, report, status)
+                if (.not. status%ok()) return
+                fresh = .true.
+                need_factors = .false.
+                previous = huge(1.0_wp)
+                last_rate = 0
+            end if
+            target = run%settings%tolerance
+            floor = run%stagnation
+            if (lowered) then
+                target = banded_phase_tolerance
+                floor = banded_phase_floor
+            end if
+            correction = newton_correction(self, run%scale)
+            action = next_action(correction, previous, last_rate, target, floor, fresh, &
+                                 run%settings, growth)
+            if (run%watch) call first_corrections(self, run, correction, action)
+            if (action == ACTION_REFACTOR) then
+                ! Kept factors contract poorly: fresh ones at x, same residual.
+                if (kept) self%prefer_fresh = .true.
+                call refactor(self, run, lowered, report, status)
+                if (.not. status%ok()) return
+                fresh = .true.
+                previous = huge(1.0_wp)
+                last_rate = 0
+                correction = newton_correction(self, run%scale)
+                action = next_action(correction, previous, last_rate, target, floor, &
+                                     fresh, run%settings, growth)
+            end if
+            select case (action)
+            case (ACTION_DIVERGED)
+                call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton corrections " // &
+                    "grew " // int_str(growth) // " times in a row (last " // &
+                    real_str(correction) // ") at iteration " // int_str(iter))
+                return
+            case (ACTION_CONVERGED)
+                self%x = self%x - real(self%delta, wp)
+                if (.not. lowered .or. run%settings%tolerance >= banded_phase_tolerance) then
+                    call finish(self, lowered, dq, dpb)
+                    return
+                end if
+                ! The end of the real64 phase.
+                lowered = .false.
+                if (previous < huge(1.0_wp)) rate = correction / previous
+                need_factors = end_real64_phase(run, rate, correction, previous)
+                previous = huge(1.0_wp)
+                last_rate = 0
+                cycle
+            end select
+            self%x = self%x - real(self%delta, wp)
+            if (previous < huge(1.0_wp)) last_rate = correction / previous
+            previous = correction
+            ! Factors formed at an earlier iterate are no longer fresh: a poor rate then
+            ! calls for new ones at the current iterate (full Newton).
+            fresh = .false.
+        end do
+        call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged " // &
+            "after " // int_str(run%settings%max_iterations) // " iterations")
+    end subroutine iterate
+
+    !> The residual at self%x, in real64 (`lowered`) or working precision, into f_low (and
+    !! f). An iterate or residual beyond the range of real64 (h far beyond the system's
+    !! scale) cannot be lowered: the iteration has diverged.
+    subroutine evaluate(self, lowered, iteration, status)
+        class(reduced_step_t), intent(inout) :: self
+        logical, intent(in) :: lowered
+        integer, intent(in) :: iteration
+        type(holosym_status_t), intent(out) :: status
+        if (lowered) then
+            if (.not. fits_real64(self%x)) then
+                call beyond_real64("iterate", iteration, status)
                 return
             end if
-            self%factors_h = h
-        end subroutine refactor
+            self%x_low = real(self%x, dp)
+            call self%scheme%residual_lowered(self%x_low, self%f_low, status)
+        else
+            call self%scheme%residual(self%x, self%f, status)
+            if (.not. status%ok()) return
+            if (.not. fits_real64(self%f)) then
+                call beyond_real64("residual", iteration, status)
+                return
+            end if
+            self%f_low = real(self%f, dp)
+        end if
+    end subroutine evaluate
 
-    end subroutine step_solve
+    !> The step's results, accepted without a confirming residual: from the evaluation at
+    !! the last iterate, updated to first order across the last correction (a tolerance
+    !! the real64 phase meets needs no working-precision residual at all).
+    subroutine finish(self, lowered, dq, dpb)
+        class(reduced_step_t), intent(inout) :: self
+        logical, intent(in) :: lowered
+        real(wp), intent(out) :: dq(:), dpb(:)
+        call self%scheme%increments(dq, dpb, lowered)
+        call self%scheme%linear_dp_change(-self%delta, self%f(1:size(dpb)))
+        dq = self%x(self%scheme%layout%z_col(:, self%scheme%order_m))
+        dpb = dpb + self%f(1:size(dpb))
+    end subroutine finish
+
+    !> At the end of the real64 phase (last correction `correction`, contraction `rate`,
+    !! the one before `previous`): whether to renew the factors for the working-precision
+    !! phase (`renewal_pays`), and the known contraction of the kept ones (a rate measured
+    !! above the real64 round-off predicts theirs) for `first_corrections`.
+    logical function end_real64_phase(run, rate, correction, previous) result(renew)
+        type(solve_t), intent(inout) :: run
+        real(wp), intent(in) :: rate, correction, previous
+        renew = renewal_pays(rate, correction, run%settings%tolerance, &
+                             jacobian_cost_of(run%settings, banded_jacobian_cost))
+        run%renewed = renew
+        run%low_rate = 1
+        if (previous < huge(1.0_wp) .and. correction > 10 * banded_phase_tolerance &
+            .and. rate < 1) run%low_rate = rate
+        run%watch = .true.
+    end function end_real64_phase
+
+    !> HOLOSYM_NEWTON_DIVERGED: the `what` of the iteration left the range of real64.
+    subroutine beyond_real64(what, iteration, status)
+        character(len=*), intent(in) :: what
+        integer, intent(in) :: iteration
+        type(holosym_status_t), intent(out) :: status
+        call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton diverged: the " // &
+            what // " left the range of real64 at iteration " // int_str(iteration))
+    end subroutine beyond_real64
+
+    !> The first working-precision corrections: the first is accepted when a known
+    !! contraction predicts the tolerance met: that of the real64 phase when its factors
+    !! are kept, or `learned_rate` for factors renewed at its end (the second correction
+    !! after a renewal measures it again; every 16th step does so).
+    subroutine first_corrections(self, run, correction, action)
+        class(reduced_step_t), intent(inout) :: self
+        type(solve_t), intent(inout) :: run
+        real(wp), intent(in) :: correction
+        integer, intent(inout) :: action
+        real(wp) :: known
+        if (run%first == 0) then
+            run%first = correction
+            if (run%renewed) then
+                self%steps_since_measured = self%steps_since_measured + 1
+                known = self%learned_rate
+                if (self%steps_since_measured >= 16) known = 1
+            else
+                known = run%low_rate
+            end if
+            if (action == ACTION_ITERATE .and. predicted_within(known, correction, &
+                    run%settings%tolerance, rate_margin)) action = ACTION_CONVERGED
+        else if (run%renewed) then
+            if (run%first > 0) self%learned_rate = correction / run%first
+            self%steps_since_measured = 0
+            run%renewed = .false.
+        end if
+        if (run%first /= correction) run%watch = run%renewed
+    end subroutine first_corrections
+
+    !> delta = the Newton correction for the residual f_low; its size relative to the
+    !! state (`scale`).
+    real(wp) function newton_correction(self, scale) result(correction)
+        class(reduced_step_t), intent(inout) :: self
+        real(wp), intent(in) :: scale
+        self%delta = self%f_low
+        call self%factors%solve(self%delta)
+        correction = maxval(abs(self%delta)) / scale
+    end function newton_correction
+
+    !> Form and factor the Newton matrix at self%x from the evaluation just made there
+    !! (real64 or working precision).
+    subroutine refactor(self, run, lowered, report, status)
+        class(reduced_step_t), intent(inout) :: self
+        type(solve_t), intent(in) :: run
+        logical, intent(in) :: lowered
+        type(reduced_report_t), intent(inout) :: report
+        type(holosym_status_t), intent(out) :: status
+        integer :: info
+        call self%scheme%jacobian(lowered, status)
+        if (.not. status%ok()) return
+        call self%factors%factor(self%scheme%layout%jac_start, self%scheme%layout%jac_col, &
+                                 self%scheme%jac_values, info, &
+                                 real(run%settings%pivot_tolerance, dp))
+        report%factorizations = report%factorizations + 1
+        if (info /= 0) then
+            self%singular_x = self%x
+            self%have_singular_x = .true.
+            call set_status(status, HOLOSYM_SINGULAR_MATRIX, "reduced Newton matrix " // &
+                "singular at pivot " // int_str(info) // " of " // int_str(self%scheme%nx))
+            return
+        end if
+        self%factors_h = run%h
+    end subroutine refactor
 
     !> Whether every finite entry of `values` is within the range of real64, so that
     !! converting it cannot overflow (NaN and Inf convert as they are; they are not
@@ -366,7 +412,7 @@ contains
         integer :: k
         fits = .true.
         do k = 1, size(values)
-            if (.not. is_finite(values(k))) cycle
+            if (.not. ieee_is_finite(values(k))) cycle
             if (abs(values(k)) > huge(1.0_dp)) then
                 fits = .false.
                 return
