@@ -157,9 +157,28 @@ module holosym_integrator
         procedure :: available => dense_available
     end type step_dense_output
 
+    !> The two steps: the general scheme (all unknowns, dense Newton matrix) and the
+    !! reduced step (momenta eliminated, sparse or banded real64 factors).
+    integer, parameter :: STEP_GENERAL = 1, STEP_REDUCED = 2
+
+    !> The integrator's path: the one record of which step a system takes, which it may
+    !! fall back on and which solved the last accepted step. The procedures that differ
+    !! between the two steps (solution nodes, momentum jump, dense output, multipliers,
+    !! acceptance) dispatch on it in holosym_integrator_paths.f90.
+    type :: path_t
+        !> The step of this system: STEP_REDUCED where it declares a constant diagonal mass
+        !! matrix and `structured` was set at `init`, else STEP_GENERAL.
+        integer :: main = STEP_GENERAL
+        !> The general scheme is set up: the main step, or the reduced step's fallback for
+        !! small systems.
+        logical :: general_ready = .false.
+        !> The step that solved the last accepted step (its dense output, extrapolation).
+        integer :: last = STEP_GENERAL
+    end type path_t
+
     !> The numbers of a solved step that is not accepted yet (see `commit_step`).
     type :: pending_t
-        logical :: general = .true.       ! solved by the general scheme (else the reduced)
+        integer :: step = STEP_GENERAL    ! the step that solved it (STEP_GENERAL, _REDUCED)
         logical :: extrapolated = .false. ! from the extrapolated first guess
         integer :: iterations = 0, factorizations = 0, residuals = 0, lowered = 0
         integer :: gradients = 0, hessians = 0
@@ -243,11 +262,8 @@ module holosym_integrator
         logical, private :: structured_at_init = .true.
         type(discrete_scheme), private :: scheme
         type(reduced_step_t), private :: reduced
-        logical, private :: reduced_active = .false.
-        ! The general scheme is set up: the main path, or the reduced path's fallback.
-        logical, private :: general_ready = .false.
-        ! The last step was solved by the general scheme (its dense output, extrapolation).
-        logical, private :: last_general = .true.
+        ! Which step this system takes, which it falls back on, which solved the last step.
+        type(path_t), private :: path
         logical, private :: ready = .false.
         logical, private :: have_last = .false.
         real(wp), allocatable, private :: last_x(:), last_qa(:), last_pa(:)
@@ -426,6 +442,45 @@ module holosym_integrator
             real(wp), intent(in) :: q(:) !! start coordinates of the step
             logical, intent(in) :: general !! the general scheme's iterate (else the reduced's)
         end subroutine record_dependent_nodes
+
+        ! What differs between the two steps: holosym_integrator_paths.f90.
+
+        !> Displacement node i (0..M) of the pending step from q.
+        module subroutine path_node(self, q, i, node)
+            class(constrained_integrator), intent(in) :: self !! the integrator
+            real(wp), intent(in) :: q(:) !! start coordinates of the step
+            integer, intent(in) :: i !! node index, 0..M
+            real(wp), intent(out) :: node(:) !! q at node i
+        end subroutine path_node
+        !> Momentum polynomial's ends against the pending step's end momenta (absolute).
+        module function path_momentum_jump(self, p, h) result(jump)
+            class(constrained_integrator), intent(in) :: self !! the integrator
+            real(wp), intent(in) :: p(:), h !! start momenta and step size
+            real(wp) :: jump
+        end function path_momentum_jump
+        !> A copy of the pending step's unknowns.
+        module subroutine path_solution(self, x)
+            class(constrained_integrator), intent(in) :: self !! the integrator
+            real(wp), allocatable, intent(out) :: x(:) !! the unknowns
+        end subroutine path_solution
+        !> Make `x` (from `path_solution`) the pending step's unknowns again.
+        module subroutine path_restore_solution(self, x)
+            class(constrained_integrator), intent(inout) :: self !! the integrator
+            real(wp), intent(in) :: x(:) !! the unknowns
+        end subroutine path_restore_solution
+        !> Accept the pending step on its path: its polynomials kept, its multipliers.
+        module subroutine path_accept(self, sys, q, p, h, rebind)
+            class(constrained_integrator), intent(inout) :: self !! the integrator
+            class(constrained_hamiltonian), intent(in), target :: sys !! the system
+            real(wp), intent(in) :: q(:), p(:), h !! start state and step size
+            logical, intent(in) :: rebind !! bind the general scheme to this step again
+        end subroutine path_accept
+        !> Dense output of the last accepted step at tau in [0, 1].
+        module subroutine path_dense(self, tau, q, p, lambda)
+            class(constrained_integrator), intent(in) :: self !! the integrator
+            real(wp), intent(in) :: tau !! fraction of the step
+            real(wp), intent(out) :: q(:), p(:), lambda(:) !! q~, p~, lambda~ at tau
+        end subroutine path_dense
     end interface
 contains
 
@@ -446,19 +501,19 @@ contains
 
         ! Checks of (M, N, G) and of the sizes are the general scheme's.
         call scheme%check(M, N, G, sys%n, sys%m, local)
-        self%reduced_active = .false.
+        self%path = path_t()
         self%structured_at_init = self%structured
         if (local%ok() .and. self%structured) then
             allocate (mass(sys%n))
-            self%reduced_active = reduced_structure(sys, mass)
+            if (reduced_structure(sys, mass)) self%path%main = STEP_REDUCED
         end if
-        if (local%ok() .and. self%reduced_active) &
+        if (local%ok() .and. self%path%main == STEP_REDUCED) &
             call self%reduced%init(sys, M, N, G, local)
         ! The general scheme's workspace is dense (cubic in the size): as the reduced step's
         ! fallback only for small systems.
-        self%general_ready = .not. self%reduced_active .or. &
+        self%path%general_ready = self%path%main == STEP_GENERAL .or. &
             scheme%nx <= general_fallback_size
-        if (local%ok() .and. self%general_ready) &
+        if (local%ok() .and. self%path%general_ready) &
             call scheme%init(M, N, G, sys%n, sys%m, local)
         if (.not. local%ok()) then
             self%ready = .false.
@@ -477,7 +532,7 @@ contains
         if (allocated(self%last_x)) deallocate (self%last_x, self%last_qa, self%last_pa, &
                                                 self%last_qb, self%last_pb)
         nx = scheme%nx
-        if (.not. self%general_ready) nx = 0
+        if (.not. self%path%general_ready) nx = 0
         allocate (self%x_work(nx), self%dq_work(sys%n), self%dp_work(sys%n), &
                   self%q_end_work(sys%n), self%p_end_work(sys%n), self%hp_work(sys%n))
         self%last_energy_known = .false.
@@ -487,8 +542,8 @@ contains
         ! A fresh workspace: nothing learnt by an earlier run (kept factors, the
         ! quadratic-convergence constant) may change the results of this one.
         self%workspace = newton_workspace_t()
-        if (self%general_ready) call self%workspace%setup(scheme%nx)
-        self%last_general = .not. self%reduced_active
+        if (self%path%general_ready) call self%workspace%setup(scheme%nx)
+        self%path%last = self%path%main
         self%applied_modes = 0
         self%stats = integrator_stats_t()
         call set_status(status, HOLOSYM_SUCCESS, "")
@@ -581,7 +636,7 @@ contains
         ! factors and habits simplified Newton learnt in earlier runs are forgotten.
         if (.not. continues_last_step(self, q, p)) then
             call self%workspace%reset()
-            if (self%reduced_active) call self%reduced%forget()
+            if (self%path%main == STEP_REDUCED) call self%reduced%forget()
         end if
         t0 = 0
         if (present(start_time)) t0 = start_time
@@ -648,13 +703,7 @@ contains
             call set_status(status, HOLOSYM_SIZE_MISMATCH, "dense output needs q, p of size " // &
                 int_str(self%scheme%n) // " and lambda of size " // int_str(self%scheme%m))
         else
-            if (.not. self%last_general) then
-                call self%reduced%scheme%dense(self%reduced%last_x, self%last_qa, self%last_h, &
-                                               tau, q, p, lambda)
-            else
-                call self%scheme%dense(self%last_x, self%last_qa, self%last_pa, self%last_h, &
-                                       tau, q, p, lambda)
-            end if
+            call path_dense(self, tau, q, p, lambda)
             call set_status(status, HOLOSYM_SUCCESS, "")
         end if
     end subroutine integrator_dense_output

@@ -189,7 +189,7 @@ contains
         settings%max_iterations = 1
         scale = max(maxval(abs(q)), maxval(abs(p)))
         if (.not. scale > 0) scale = 1
-        if (self%general_ready) then
+        if (self%path%general_ready) then
             call apply_options(self, h, local)
             call self%scheme%set_step(sys, q, p, h)
             allocate (x(self%scheme%nx))

@@ -50,11 +50,7 @@ contains
         class(constrained_integrator), intent(in) :: self
         real(wp), intent(in) :: q(:), p(:), h
         real(wp) :: jump, scale
-        if (self%pending%general) then
-            jump = self%scheme%momentum_jump(self%x_work, self%dp_work)
-        else
-            jump = self%reduced%scheme%momentum_jump(self%reduced%x, p, self%dp_work, h)
-        end if
+        jump = path_momentum_jump(self, p, h)
         scale = max(maxval(abs(q)), maxval(abs(p)))
         if (scale > 0) jump = jump / scale
         if (.not. is_finite(jump)) jump = 0
@@ -208,11 +204,7 @@ contains
         class(constrained_integrator), intent(in) :: self
         type(step_candidate_t), intent(out) :: candidate
         candidate%pending = self%pending
-        if (self%pending%general) then
-            candidate%x = self%x_work
-        else
-            candidate%x = self%reduced%x
-        end if
+        call path_solution(self, candidate%x)
         candidate%dq = self%dq_work
         candidate%dp = self%dp_work
     end subroutine take_candidate
@@ -222,11 +214,7 @@ contains
         class(constrained_integrator), intent(inout) :: self
         type(step_candidate_t), intent(in) :: candidate
         self%pending = candidate%pending
-        if (candidate%pending%general) then
-            self%x_work = candidate%x
-        else
-            self%reduced%x = candidate%x
-        end if
+        call path_restore_solution(self, candidate%x)
         self%dq_work = candidate%dq
         self%dp_work = candidate%dp
     end subroutine restore_candidate

@@ -55,7 +55,7 @@ contains
                     trim(self%hessians) // "'"
             end select
         end if
-        if (len(message) == 0 .and. self%reduced_active) then
+        if (len(message) == 0 .and. self%path%main == STEP_REDUCED) then
             if (.not. reduced_honours(self)) message = reduced_refusal(self)
         end if
         settings_valid = len(message) == 0

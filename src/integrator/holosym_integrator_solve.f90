@@ -70,11 +70,11 @@ contains
         logical, intent(in) :: extrapolation
         type(holosym_status_t), intent(out) :: status
         character(len=:), allocatable :: reduced_message
-        if (.not. self%reduced_active) then
+        if (self%path%main == STEP_GENERAL) then
             call solve_general(self, sys, q, p, h, extrapolation, status)
         else
             call solve_reduced(self, sys, q, p, h, extrapolation, status)
-            if (.not. (status%ok() .or. .not. self%general_ready .or. &
+            if (.not. (status%ok() .or. .not. self%path%general_ready .or. &
                        is_system_fault(status%code))) then
                 ! The reduced step factors its Newton matrix in real64 only: where that is
                 ! too ill-conditioned (nearly dependent constraints), the general step of a
@@ -103,13 +103,7 @@ contains
         if (sys%m == 0) return
         do i = 0, self%scheme%order_m
             ! The node in p_end_work, free until `energy_change`.
-            if (self%pending%general) then
-                call self%scheme%solution_node(self%x_work, i, self%p_end_work)
-            else
-                self%p_end_work = q
-                if (i > 0) self%p_end_work = q + &
-                    self%reduced%x(self%reduced%scheme%layout%z_col(:, i))
-            end if
+            call path_node(self, q, i, self%p_end_work)
             call sys%constraint(self%p_end_work, phi)
             if (.not. all(is_finite(phi))) then
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, trim(step_label(self, h)) // &
@@ -129,15 +123,7 @@ contains
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
         logical, intent(in) :: rebind
-        if (self%pending%general) then
-            if (rebind) call self%scheme%set_step(sys, q, p, h)
-            call self%scheme%node_values(self%x_work, self%last_info%lambda)
-            self%last_x = self%x_work
-        else
-            call self%reduced%accept(q, h)
-            call self%reduced%scheme%multipliers(self%reduced%last_x, h, self%last_info%lambda)
-        end if
-        self%last_general = self%pending%general
+        call path_accept(self, sys, q, p, h, rebind)
         associate (info => self%last_info, pending => self%pending)
             info%newton_iterations = pending%iterations
             info%constraint_residual = pending%position
@@ -180,7 +166,7 @@ contains
         call self%scheme%set_step(sys, q, p, h)
         extrapolated = .false.
         if (self%extrapolate .and. extrapolation) extrapolated = &
-            continues_last_step(self, q, p) .and. self%last_general
+            continues_last_step(self, q, p) .and. self%path%last == STEP_GENERAL
         call first_guess()
         ! Increments are compared with the size of the state, not with themselves.
         scale = max(maxval(abs(q)), maxval(abs(p)))
@@ -201,15 +187,13 @@ contains
             ! The next steps use the chosen linear solver again.
             self%workspace%linear_solver = self%applied_modes(1)
         end if
-        call count_general_work(self, counters0, iterations, factorizations)
+        call count_general_work(self, counters0, iterations, factorizations, status%ok())
         if (.not. status%ok()) then
             status%message = trim(step_label(self, h)) // ": " // status%message
             return
         end if
-        self%pending%general = .true.
+        self%pending%step = STEP_GENERAL
         self%pending%extrapolated = from_extrapolation
-        self%pending%iterations = iterations
-        self%pending%factorizations = factorizations
         self%pending%pivot_ratio = report%pivot_ratio
         ! Hidden constraint at the step end, max |Phi(q_b) H_p(q_b, p_b)|
         ! (check_general_end_state).
@@ -290,32 +274,50 @@ contains
                               end_tolerance(self), status)
     end subroutine check_general_end_state
 
-    !> The work of the general scheme's solve into `stats` and `pending`: Newton iterations
-    !! and factorisations as counted by the solve, evaluations as the scheme's counters
-    !! grew since `start`.
-    subroutine count_general_work(self, start, iterations, factorizations)
+    !> The work of the general scheme's solve (`record_work`): Newton iterations and
+    !! factorisations as counted by the solve, evaluations as the scheme's counters grew
+    !! since `start`.
+    subroutine count_general_work(self, start, iterations, factorizations, solved)
         class(constrained_integrator), intent(inout) :: self
         type(scheme_counters_t), intent(in) :: start !! the scheme's counters before the solve
         integer, intent(in) :: iterations     !! Newton iterations of the solve
         integer, intent(in) :: factorizations !! LU factorisations of the solve
-        integer(int64) :: residuals, gradients, hessians, lowered
-        self%stats%newton_iterations = self%stats%newton_iterations + iterations
-        self%stats%lu_factorizations = self%stats%lu_factorizations + factorizations
-        self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + factorizations
-        residuals = self%scheme%counters%residuals - start%residuals
-        gradients = self%scheme%counters%gradients - start%gradients
-        hessians = self%scheme%counters%hessians - start%hessians
-        lowered = self%scheme%counters%lowered_residuals - start%lowered_residuals
-        self%pending%lowered = int(lowered)
-        self%stats%lowered_residual_evaluations = self%stats%lowered_residual_evaluations &
-            + lowered
-        self%pending%residuals = int(residuals)
-        self%pending%gradients = int(gradients)
-        self%pending%hessians = int(hessians)
-        self%stats%residual_evaluations = self%stats%residual_evaluations + residuals
-        self%stats%gradient_evaluations = self%stats%gradient_evaluations + gradients
-        self%stats%hessian_evaluations = self%stats%hessian_evaluations + hessians
+        logical, intent(in) :: solved         !! the solve succeeded
+        associate (now => self%scheme%counters)
+            call record_work(self, iterations, factorizations, &
+                int(now%residuals - start%residuals), &
+                int(now%lowered_residuals - start%lowered_residuals), &
+                int(now%gradients - start%gradients), int(now%hessians - start%hessians), &
+                solved)
+        end associate
     end subroutine count_general_work
+
+    !> The work of a solve by either step: added to `stats`, and when it `solved` the
+    !! step, the pending step's numbers.
+    subroutine record_work(self, iterations, factorizations, residuals, lowered, gradients, &
+                           hessians, solved)
+        class(constrained_integrator), intent(inout) :: self
+        integer, intent(in) :: iterations, factorizations !! Newton iterations, LU
+        integer, intent(in) :: residuals, lowered !! working-precision and real64 residuals
+        integer, intent(in) :: gradients, hessians !! calls of the system's derivatives
+        logical, intent(in) :: solved !! the solve succeeded
+        associate (stats => self%stats)
+            stats%newton_iterations = stats%newton_iterations + iterations
+            stats%lu_factorizations = stats%lu_factorizations + factorizations
+            stats%jacobian_evaluations = stats%jacobian_evaluations + factorizations
+            stats%residual_evaluations = stats%residual_evaluations + residuals
+            stats%lowered_residual_evaluations = stats%lowered_residual_evaluations + lowered
+            stats%gradient_evaluations = stats%gradient_evaluations + gradients
+            stats%hessian_evaluations = stats%hessian_evaluations + hessians
+        end associate
+        if (.not. solved) return
+        self%pending%iterations = iterations
+        self%pending%factorizations = factorizations
+        self%pending%residuals = residuals
+        self%pending%lowered = lowered
+        self%pending%gradients = gradients
+        self%pending%hessians = hessians
+    end subroutine record_work
 
     !> The end-state test of a solved step: non-finite residuals (from the system's
     !! constraint or dh_dp at the end state) fail with HOLOSYM_NONFINITE_VALUE, scaled
@@ -352,14 +354,6 @@ contains
         call self%reduced%solve(sys, q, p, h, self%newton, stagnation_floor(self%newton), &
             self%extrapolate .and. extrapolation .and. continues_last_step(self, q, p), &
             self%dq_work, self%dp_work, report, status)
-        self%stats%newton_iterations = self%stats%newton_iterations + report%iterations
-        self%stats%lu_factorizations = self%stats%lu_factorizations + report%factorizations
-        self%stats%jacobian_evaluations = self%stats%jacobian_evaluations + report%factorizations
-        self%stats%residual_evaluations = self%stats%residual_evaluations + report%residuals
-        self%stats%lowered_residual_evaluations = self%stats%lowered_residual_evaluations + &
-            report%lowered_residuals
-        self%stats%gradient_evaluations = self%stats%gradient_evaluations + &
-            (self%reduced%scheme%gradients - gradients0)
         if (status%ok()) then
             if (.not. (all_finite(self%dq_work) .and. all_finite(self%dp_work))) &
                 call set_status(status, HOLOSYM_NEWTON_DIVERGED, "step produced a " // &
@@ -375,6 +369,10 @@ contains
             call end_state_status(position, velocity, scaled_position, scaled_velocity, &
                                   end_tolerance(self), status)
         end if
+        ! The reduced step keeps no count of its calls of the Hessians (0 here).
+        call record_work(self, report%iterations, report%factorizations, report%residuals, &
+                         report%lowered_residuals, self%reduced%scheme%gradients - gradients0, &
+                         0, status%ok())
         if (.not. status%ok()) then
             if (status%code == HOLOSYM_SINGULAR_MATRIX) &
                 call record_dependent_nodes(self, sys, q, .false.)
@@ -382,15 +380,9 @@ contains
             self%have_last = .false.
             return
         end if
-        self%pending%general = .false.
+        self%pending%step = STEP_REDUCED
         self%pending%extrapolated = self%reduced%extrapolated
-        self%pending%iterations = report%iterations
         self%pending%pivot_ratio = report%pivot_ratio
-        self%pending%factorizations = report%factorizations
-        self%pending%residuals = report%residuals
-        self%pending%lowered = report%lowered_residuals
-        self%pending%gradients = self%reduced%scheme%gradients - gradients0
-        self%pending%hessians = 0
         self%pending%velocity = velocity
     end subroutine solve_reduced
 

@@ -159,7 +159,7 @@ contains
         real(wp), intent(in) :: q(:), p(:)
         real(wp), intent(out) :: position, velocity, scaled_position, scaled_velocity
         real(wp), intent(out), optional :: velocity_field(:) !! H_p(q, p)
-        if (self%reduced_active) then
+        if (self%path%main == STEP_REDUCED) then
             call sparse_manifold_residuals(sys, self%reduced%scheme%layout%phi_rows, &
                 self%reduced%scheme%layout%phi_cols, q, p, position, velocity, &
                 scaled_position, scaled_velocity, velocity_field)
@@ -177,7 +177,7 @@ contains
         character(len=:), allocatable, intent(out) :: message
         real(wp), intent(in), optional :: threshold !! relative pivot of Phi Phi^T
         logical, intent(out), optional :: finite    !! false: Phi not finite (result true)
-        if (self%reduced_active) then
+        if (self%path%main == STEP_REDUCED) then
             associate (lay => self%reduced%scheme%layout)
                 rank_test = sparse_full_rank_constraints(sys, lay%phi_rows, lay%phi_cols, &
                                                          lay%constraint_order, q, message, &
