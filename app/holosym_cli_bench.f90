@@ -1033,6 +1033,9 @@ contains
         call out%line(level // "# Per-step cost of the speed options " // &
             "(spherical pendulum, h = 1/8, T = 10)")
         call out%line("")
+        call out%line("Option sets 0 to 8 run the general step (`structured = .false.`), " // &
+            "which honours each option alone; the last row is the defaults, the reduced step.")
+        call out%line("")
         call out%line("| (M,N,G) | option set | s / step | x plain | Newton it. / step" // &
             " | LU / step | gradients / step | max diff. from plain at T |")
         call out%line("|---|---|---|---|---|---|---|---|")
