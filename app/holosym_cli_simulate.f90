@@ -12,6 +12,7 @@ module holosym_cli_simulate
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
+    use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
     use holosym_manifold, only: manifold_residuals
     use holosym_observers, only: trajectory_header
     use holosym_systems, only: system_source_t, make_source_system
@@ -64,6 +65,9 @@ module holosym_cli_simulate
         !! working-precision LU and no speed options; the same results to round-off, many
         !! times slower.
         logical :: plain = .false.
+        !> --accuracy: the requested max |error| of q and p at T (0: not given); holosym
+        !! then chooses (M, N, G), h and the Newton tolerance (`init_for_accuracy`).
+        real(wp) :: accuracy = 0
         !> Output file; empty for the output unit given to `run_simulate`.
         character(len=:), allocatable :: output
         !> True when --help was given (nothing else is then checked).
@@ -159,6 +163,11 @@ contains
             "                 (a note goes to standard error if T is not a multiple of h;", &
             "                 T/h must give 1..2147483647 steps when T > 0)", &
             "  --steps INT    number of steps, 0..2147483647; overrides --T", &
+            "  --accuracy TOL the max |error| of q and p wanted at T, in (0, 1):", &
+            "                 holosym chooses (M, N, G), h and the Newton tolerance", &
+            "                 from a pilot on the first tenth of the span and", &
+            "                 prints its choice and estimate (not with --M, --N,", &
+            "                 --G, --h, --steps, --plain)", &
             "  --every INT    write a row every INT steps, 1..2147483647; the rows at", &
             "                 t = 0 and after the last step are always written [1]", &
             "  --output FILE  write the CSV to FILE instead of standard output", &
@@ -198,6 +207,7 @@ contains
         type(holosym_status_t), intent(out) :: status     !! outcome
         character(len=:), allocatable :: name, inline, value
         logical :: has_inline, n_given, g_given, t_given, steps_given, taken
+        character(len=:), allocatable :: chosen
         integer :: i
 
         config%output = ""
@@ -208,6 +218,7 @@ contains
         g_given = .false.
         t_given = .false.
         steps_given = .false.
+        chosen = ""
         i = 1
         do while (i <= size(args))
             call split_option(args(i)%text, name, inline, has_inline)
@@ -228,12 +239,16 @@ contains
                 end if
                 config%plain = .true.
             case ("--system", "--M", "--m", "--N", "--n", "--G", "--g", "--h", "--T", "--t", &
-                  "--steps", "--every", "--output", "--links", "--model", "--set")
+                  "--steps", "--every", "--output", "--links", "--model", "--set", "--accuracy")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
                 call config%source%take(name, value, taken, status)
                 if (.not. taken) call set_option(config, name, value, status)
                 if (.not. status%ok()) return
+                select case (name)
+                case ("--M", "--m", "--h", "--N", "--n", "--G", "--g")
+                    chosen = name
+                end select
                 select case (name)
                 case ("--N", "--n")
                     n_given = .true.
@@ -256,6 +271,18 @@ contains
         end do
         call config%source%check(status)
         if (.not. status%ok()) return
+        if (config%accuracy > 0) then
+            ! --accuracy chooses the scheme and the step; T is the span it plans for.
+            if (len(chosen) > 0 .or. steps_given .or. config%plain) then
+                if (steps_given) chosen = "--steps"
+                if (config%plain) chosen = "--plain"
+                call fail(status, "option --accuracy chooses (M, N, G), h and the steps " // &
+                    "to T; it cannot be combined with " // chosen)
+            else if (.not. config%final_time > 0) then
+                call fail(status, "option --accuracy needs --T > 0")
+            end if
+            return
+        end if
         call default_orders(config%order_m, config%order_n, config%gauss_points, n_given, &
                             g_given, status)
         if (.not. status%ok()) return
@@ -298,6 +325,10 @@ contains
             if (status%ok()) call require(config%final_time >= 0, ">= 0")
         case ("--steps")
             call parse_integer_in(name, value, 0, huge(1), config%steps, status)
+        case ("--accuracy")
+            call parse_real(name, value, config%accuracy, status)
+            if (status%ok()) call require(config%accuracy > 0 .and. config%accuracy < 1, &
+                "in (0, 1)")
         case ("--every")
             call parse_integer_in(name, value, 1, huge(1), config%every, status)
         case ("--output")
@@ -379,7 +410,9 @@ contains
         type(holosym_status_t) :: written
         real(wp), allocatable :: q(:), p(:)
         integer(int64) :: clock_end
-        integer :: steps_done
+        integer :: steps_done, steps, order(3)
+        real(wp) :: h
+        type(accuracy_plan_t) :: plan
         character(len=:), allocatable :: note
 
         call make_source_system(config%source, sys, q, p, status, note)
@@ -391,8 +424,28 @@ contains
             integrator%linear_solver = "native"
             integrator%linear_increments = .false.
         end if
-        call integrator%init(sys, config%order_m, config%order_n, config%gauss_points, status)
-        if (.not. status%ok()) return
+        order = [config%order_m, config%order_n, config%gauss_points]
+        h = config%step_size
+        steps = config%steps
+        if (config%accuracy > 0) then
+            call init_for_accuracy(integrator, sys, q, p, config%accuracy, &
+                                   config%final_time, plan, status)
+            if (.not. status%ok()) return
+            order = [plan%order_m, plan%order_n, plan%gauss_points]
+            h = plan%h
+            steps = plan%steps
+            write (err_unit, '(a)') "holosym simulate: --accuracy " // &
+                real_str(config%accuracy) // " at T = " // real_str(config%final_time) // &
+                ": estimated error " // real_str(plan%estimate) // ", Newton tolerance " // &
+                real_str(plan%newton_tolerance) // " (pilot: " // int_str(plan%pilot_steps) // &
+                " steps to t = " // real_str(plan%pilot_span) // ", finest h = " // &
+                real_str(plan%pilot_h) // ", error ratio " // real_str(plan%observed_ratio) // &
+                " where 2^(2M) = " // real_str(2.0_wp**(2 * plan%order_m)) // &
+                " is asymptotic; 0: at round-off)"
+        else
+            call integrator%init(sys, order(1), order(2), order(3), status)
+            if (.not. status%ok()) return
+        end if
         writer%sink => out
         if (len(config%output) > 0) then
             call open_output(config%output, file, status)
@@ -408,16 +461,15 @@ contains
         if (len(note) > 0) write (err_unit, '(a)') "holosym simulate: note: " // note
         write (err_unit, '(a)') "holosym simulate: " // config%source%label() // " (n = " // &
             int_str(sys%n) // ", m = " // int_str(sys%m) // "), (M, N, G) = (" // &
-            int_str(config%order_m) // ", " // int_str(config%order_n) // ", " // &
-            int_str(config%gauss_points) // "), h = " // real_str(config%step_size) // ", " // &
-            int_str(config%steps) // " steps to t = " // &
-            real_str(config%steps * config%step_size)
+            int_str(order(1)) // ", " // int_str(order(2)) // ", " // int_str(order(3)) // &
+            "), h = " // real_str(h) // ", " // int_str(steps) // " steps to t = " // &
+            real_str(steps * h)
         flush (err_unit)
 
         allocate (writer%sys, source=sys)
         writer%err_unit = err_unit
         writer%every = config%every
-        writer%total_steps = config%steps
+        writer%total_steps = steps
         writer%q0 = q
         writer%p0 = p
         writer%summary%initial_energy = sys%hamiltonian(q, p)
@@ -430,13 +482,12 @@ contains
         call system_clock(writer%clock_start, writer%clock_rate)
         writer%clock_last = writer%clock_start
         call writer%sink%line(csv_header(sys%n, sys%m))
-        if (config%steps == 0) then
+        if (steps == 0) then
             allocate (no_step%lambda(sys%m, 0:0))
             no_step%lambda = ieee_value(1.0_wp, ieee_quiet_nan)
             call write_initial_row(writer, no_step)
         else
-            call integrator%integrate(sys, q, p, config%step_size, config%steps, writer, &
-                                      steps_done, status)
+            call integrator%integrate(sys, q, p, h, steps, writer, steps_done, status)
             writer%summary%steps_done = steps_done
         end if
         call system_clock(clock_end)

@@ -99,6 +99,7 @@ module holosym
     use holosym_model_generic, only: generic_pendulum
     use holosym_newton, only: newton_settings_t
     use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
+    use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy, accuracy_floor
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer, &
         integrator_stats_t, step_dense_output
     use holosym_observers, only: trajectory_writer, energy_monitor, trajectory_header
@@ -151,6 +152,8 @@ module holosym
     ! energy/constraint monitor.
     public :: constrained_integrator, step_info_t, step_observer, integrator_stats_t, &
         step_dense_output
+    ! The trade of speed for accuracy as one argument: the plan and the integrator set up.
+    public :: accuracy_plan_t, init_for_accuracy, accuracy_floor
     public :: trajectory_writer, energy_monitor, trajectory_header
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order

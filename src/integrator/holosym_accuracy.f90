@@ -1,0 +1,277 @@
+!> category: public module (use holosym)
+!! The trade of speed for accuracy as one argument: `init_for_accuracy` chooses the scheme
+!! (M, N, G), the step size h and the Newton tolerance for a requested global error at
+!! time T, from the error model of the scheme and a short pilot, and sets up the
+!! integrator with them.
+!!
+!! Error model. The method has order 2M: the error of one run to T with step h is about
+!! C T h^(2M) for regular motion (phase errors grow linearly in time). The pilot measures
+!! C on the first tenth of the span: runs with steps h_p, h_p/2, h_p/4 from the start
+!! (step doubling), whose differences d1, d2 give the error of the finest run as
+!! d2 / (2^(2M) - 1) once their ratio d1/d2 shows the asymptotic 2^(2M) (h_p is halved until
+!! it does). The error at T is that times T / T_pilot, and h is chosen to meet half the
+!! request (never above the largest pilot step found asymptotic), rounded so that T is a
+!! whole number of steps. The Newton tolerance is the request spread over the steps (at
+!! least 8 epsilon): a loose request needs no working-precision residual at all.
+!!
+!! What the model cannot see: motion whose errors grow faster than linearly (chaos, a
+!! separatrix) is under-estimated by the linear extrapolation; requests near the round-off
+!! of the working precision (about 1e-31 for a state of size 1 in real128) are refused.
+module holosym_accuracy
+    use holosym_kinds, only: wp, wp_is_double
+    use holosym_status_codes, only: holosym_status_t, set_status, real_str, int_str, &
+        is_finite, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH
+    use holosym_problem, only: constrained_hamiltonian
+    use holosym_integrator, only: constrained_integrator
+    implicit none
+    private
+
+    public :: accuracy_plan_t, init_for_accuracy, accuracy_floor
+
+    !> What `init_for_accuracy` chose, and why.
+    type :: accuracy_plan_t
+        integer :: order_m = 0, order_n = 0, gauss_points = 0 !! the scheme (M, N, G)
+        real(wp) :: h = 0                 !! step size: T / steps
+        integer :: steps = 0              !! steps to T
+        real(wp) :: newton_tolerance = 0  !! the integrator's `newton%tolerance`
+        real(wp) :: estimate = 0          !! predicted max |error| of q and p at T
+        real(wp) :: pilot_h = 0           !! finest step of the pilot
+        real(wp) :: pilot_span = 0        !! span of the pilot runs
+        real(wp) :: observed_ratio = 0    !! d1 / d2 of the pilot (2^(2M) when asymptotic)
+        integer :: pilot_steps = 0        !! steps the pilot took, all runs together
+    end type accuracy_plan_t
+
+    !> Share of the span the pilot runs over.
+    real(wp), parameter :: pilot_fraction = 0.1_wp
+    !> The pilot's first step: the pilot span in this many steps (halved from there).
+    integer, parameter :: pilot_first_steps = 1
+    !> Halvings of the pilot step tried before the pilot gives up on the asymptotic regime.
+    integer, parameter :: pilot_halvings = 8
+    !> The pilot differences are asymptotic when their ratio is at least this share of
+    !! 2^(2M) (the next term of the error expansion, and the first steps' transient, move
+    !! it a little).
+    real(wp), parameter :: asymptotic_share = 0.25_wp
+    !> The plan aims at the request divided by this (the estimate varies by a few per cent
+    !! with the pilot, the linear growth in time by more).
+    real(wp), parameter :: safety = 2
+    !> Pilot differences below this many epsilons of the state's size are round-off: the
+    !! coarser difference then bounds the error.
+    real(wp), parameter :: roundoff_epsilons = 1000
+    !> The Newton tolerance is the request over this many times the steps (per-step Newton
+    !! errors add up at most linearly).
+    real(wp), parameter :: newton_share = 4
+
+contains
+
+    !> The smallest request `init_for_accuracy` accepts for a state of size `scale`: the
+    !! round-off of a run of some thousand steps in the working precision (100 epsilons of
+    !! the state; 2e-32 in real128, 2e-14 in real64, for a state of size 1).
+    pure real(wp) function accuracy_floor(scale)
+        real(wp), intent(in) :: scale !! max(|q|, |p|) of the start state
+        accuracy_floor = 100 * epsilon(1.0_wp) * max(scale, 1.0_wp)
+    end function accuracy_floor
+
+    !> Set up `integ` to reach `tolerance` (max |error| of q and p at T, absolute) at time
+    !! T from (q, p), which stay unchanged: the plan in `plan`; then
+    !! `call integ%integrate(sys, q, p, plan%h, plan%steps, ...)`. Codes:
+    !! HOLOSYM_INVALID_ARGUMENT (tolerance not in [accuracy_floor, 1), T not > 0 and
+    !! finite), HOLOSYM_SIZE_MISMATCH, or the failure of a pilot run (the code of its step;
+    !! the message says which pilot step). On failure `integ` is not initialised for the
+    !! plan and `plan` holds what the pilot found.
+    subroutine init_for_accuracy(integ, sys, q, p, tolerance, T, plan, status)
+        type(constrained_integrator), intent(inout) :: integ !! set up for the plan
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(in) :: q(:), p(:)   !! start state (on the constraints)
+        real(wp), intent(in) :: tolerance    !! requested max |error| at T
+        real(wp), intent(in) :: T            !! final time, > 0
+        type(accuracy_plan_t), intent(out) :: plan !! the choice and its estimate
+        type(holosym_status_t), intent(out), optional :: status !! outcome
+        type(holosym_status_t) :: local
+        real(wp) :: scale, error_pilot, error_full, h_full, h
+
+        scale = 0
+        if (size(q) == sys%n .and. size(p) == sys%n .and. sys%n > 0) &
+            scale = max(maxval(abs(q)), maxval(abs(p)))
+        if (.not. request_valid(sys, q, p, tolerance, T, scale, local)) then
+            call set_status(status, local%code, local%message)
+            return
+        end if
+        call choose_order(tolerance, plan)
+        plan%pilot_span = pilot_fraction * T
+        call pilot(integ, sys, q, p, plan, scale, error_pilot, local)
+        if (local%ok()) call full_span(integ, sys, q, p, T, plan, scale, error_full, h_full, &
+                                       local)
+        if (.not. local%ok()) then
+            call set_status(status, local%code, local%message)
+            return
+        end if
+        ! Error at T ~ error_full (h / h_full)^(2M): meet tolerance / safety, with steps no
+        ! coarser than the coarse full-span run.
+        h = h_full * (tolerance / (safety * error_full))**(1.0_wp / (2 * plan%order_m))
+        h = min(h, 2 * h_full)
+        plan%steps = max(1, ceiling(T / h))
+        plan%h = T / plan%steps
+        plan%estimate = error_full * (plan%h / h_full)**(2 * plan%order_m)
+        plan%newton_tolerance = max(8 * epsilon(1.0_wp), min(1.0e-3_wp, &
+            tolerance / (newton_share * plan%steps * max(scale, 1.0_wp))))
+        integ%newton%tolerance = plan%newton_tolerance
+        call integ%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
+        call set_status(status, local%code, local%message)
+    end subroutine init_for_accuracy
+
+    !> Whether the request is one `init_for_accuracy` can plan; else why not.
+    logical function request_valid(sys, q, p, tolerance, T, scale, status) result(valid)
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:), tolerance, T, scale
+        type(holosym_status_t), intent(out) :: status
+        valid = .false.
+        status%code = HOLOSYM_SUCCESS
+        if (size(q) /= sys%n .or. size(p) /= sys%n) then
+            call set_status(status, HOLOSYM_SIZE_MISMATCH, "q and p must have size " // &
+                int_str(sys%n))
+        else if (.not. (is_finite(T) .and. is_finite(tolerance))) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "tolerance and T must be " // &
+                "finite, got " // real_str(tolerance) // " and " // real_str(T))
+        else if (T <= 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "T must be > 0, got " // &
+                real_str(T))
+        else if (tolerance >= 1 .or. tolerance < accuracy_floor(scale)) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "tolerance must be in [" // &
+                real_str(accuracy_floor(scale)) // ", 1) (the round-off of the working " // &
+                "precision for this state), got " // real_str(tolerance))
+        else
+            valid = .true.
+        end if
+    end function request_valid
+
+    !> (M, N, G) for a request: order 16 (M = 8) where the bench finds it the fastest in
+    !! real128 (1e-14 and tighter), order 12 (M = 6) down from 1e-10, order 8 (M = 4)
+    !! for looser requests (steps of a size the motion still resolves); N = M - 1,
+    !! G = M + 1 (the paper's best family).
+    pure subroutine choose_order(tolerance, plan)
+        real(wp), intent(in) :: tolerance
+        type(accuracy_plan_t), intent(inout) :: plan
+        plan%order_m = 8
+        if (tolerance > 1.0e-13_wp .or. wp_is_double) plan%order_m = 6
+        if (tolerance > 1.0e-9_wp) plan%order_m = 4
+        plan%order_n = plan%order_m - 1
+        plan%gauss_points = plan%order_m + 1
+    end subroutine choose_order
+
+    !> The pilot: runs to T_pilot with steps h_p, h_p/2, h_p/4 (h_p halved until the
+    !! differences are asymptotic); the estimated error of the run with step pilot_h.
+    subroutine pilot(integ, sys, q, p, plan, scale, error, status)
+        type(constrained_integrator), intent(inout) :: integ
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), scale
+        type(accuracy_plan_t), intent(inout) :: plan
+        real(wp), intent(out) :: error
+        type(holosym_status_t), intent(out) :: status
+        real(wp), allocatable :: end(:, :)
+        real(wp) :: d1, d2, floor, ideal
+        integer :: halving, steps, k
+
+        allocate (end(2 * sys%n, 3))
+        floor = roundoff_epsilons * epsilon(1.0_wp) * max(scale, 1.0_wp)
+        ideal = 2.0_wp**(2 * plan%order_m)
+        steps = pilot_first_steps
+        error = 0
+        do halving = 0, pilot_halvings
+            plan%pilot_h = plan%pilot_span / (4 * steps)
+            ! A step too large for Newton or the root check is one the motion does not
+            ! resolve yet: halve it.
+            do k = 1, 3
+                call pilot_run(integ, sys, q, p, plan, plan%pilot_span, steps * 2**(k - 1), &
+                               end(:, k), status)
+                if (.not. status%ok()) exit
+            end do
+            if (.not. status%ok()) then
+                steps = 2 * steps
+                cycle
+            end if
+            d1 = maxval(abs(end(:, 1) - end(:, 2)))
+            d2 = maxval(abs(end(:, 2) - end(:, 3)))
+            if (d2 <= floor) then
+                ! The finest run is exact to round-off: the coarser difference bounds its
+                ! error from above (a plan from it errs on the accurate side).
+                plan%observed_ratio = 0
+                error = max(d1 / (ideal - 1) / ideal, floor / ideal)
+                return
+            end if
+            plan%observed_ratio = d1 / d2
+            if (plan%observed_ratio >= asymptotic_share * ideal) then
+                error = d2 / (ideal - 1)
+                return
+            end if
+            steps = 2 * steps
+        end do
+        if (.not. status%ok()) return
+        call set_status(status, HOLOSYM_INVALID_ARGUMENT, "the pilot found no step size " // &
+            "down to " // real_str(plan%pilot_h) // " where the errors shrink as h^" // &
+            int_str(2 * plan%order_m) // " (last ratio " // real_str(plan%observed_ratio) // &
+            "): the motion is not resolved on the first " // real_str(plan%pilot_span) // &
+            " of the span")
+    end subroutine pilot
+
+    !> The error at T: runs over the whole span with the coarsest step the pilot found
+    !! asymptotic (h_c, as a whole fraction of T) and with h_c/2, their difference d giving
+    !! the error of the finer, d / (2^(2M) - 1), in `error` at step `h_fine` (h_c halved
+    !! while a run fails: the motion may be faster later than at the start).
+    subroutine full_span(integ, sys, q, p, T, plan, scale, error, h_fine, status)
+        type(constrained_integrator), intent(inout) :: integ
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), T, scale
+        type(accuracy_plan_t), intent(inout) :: plan
+        real(wp), intent(out) :: error, h_fine
+        type(holosym_status_t), intent(out) :: status
+        real(wp), allocatable :: end(:, :)
+        real(wp) :: d, floor, ideal
+        integer :: halving, steps
+        allocate (end(2 * sys%n, 2))
+        floor = roundoff_epsilons * epsilon(1.0_wp) * max(scale, 1.0_wp)
+        ideal = 2.0_wp**(2 * plan%order_m)
+        steps = max(1, ceiling(T / (2 * plan%pilot_h)))
+        error = 0
+        h_fine = 0
+        do halving = 0, pilot_halvings
+            call pilot_run(integ, sys, q, p, plan, T, steps, end(:, 1), status)
+            if (status%ok()) call pilot_run(integ, sys, q, p, plan, T, 2 * steps, end(:, 2), &
+                                            status)
+            if (status%ok()) exit
+            steps = 2 * steps
+        end do
+        if (.not. status%ok()) return
+        h_fine = T / (2 * steps)
+        d = maxval(abs(end(:, 1) - end(:, 2)))
+        ! At round-off the difference bounds the error from above.
+        error = max(d, floor) / (ideal - 1)
+    end subroutine full_span
+
+    !> One pilot run: `steps` steps to `span` at the plan's (M, N, G) with the default
+    !! Newton tolerance; the end state (q, p) in `end`.
+    subroutine pilot_run(integ, sys, q, p, plan, span, steps, end, status)
+        type(constrained_integrator), intent(inout) :: integ
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), span
+        type(accuracy_plan_t), intent(inout) :: plan
+        integer, intent(in) :: steps
+        real(wp), intent(out) :: end(:)
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: qk(size(q)), pk(size(p))
+        integ%newton%tolerance = 8 * epsilon(1.0_wp)
+        call integ%init(sys, plan%order_m, plan%order_n, plan%gauss_points, status)
+        if (.not. status%ok()) return
+        qk = q
+        pk = p
+        call integ%integrate(sys, qk, pk, span / steps, steps, status=status)
+        plan%pilot_steps = plan%pilot_steps + steps
+        if (.not. status%ok()) then
+            status%message = "pilot run of " // int_str(steps) // " steps to " // &
+                real_str(span) // ": " // status%message
+            return
+        end if
+        end(1:size(q)) = qk
+        end(size(q) + 1:) = pk
+    end subroutine pilot_run
+
+end module holosym_accuracy
