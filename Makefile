@@ -27,6 +27,8 @@
 #   make bench-quick          the whole bench pipeline in a few minutes (build/bench-quick)
 #   make bench-models         model files against the built-in models, chains from model
 #                             files (minutes); that section of docs/performance.md
+#   make bench-accuracy       what --accuracy delivers on five systems (a minute):
+#                             the tables of docs/accuracy.md
 # Figures, models, C interface:
 #   make figures              every figure of docs/figures.md: CSV from `holosym figures`
 #                             into build/figures, PNG into docs/figures (matplotlib in
@@ -76,7 +78,7 @@ DOCS_VENV ?= build/venv-docs
 CMAKE_DIR ?= build/cmake
 
 .PHONY: all deps include-digest test test64 test-trap tables bench bench-long bench-quick bench-report \
-	bench-models bench-models-data \
+	bench-models bench-models-data bench-accuracy \
 	pendulum linkage examples clean install check-install check-fpm-install cmake-deps \
 	cmake-test flang-deps test-flang check-examples check-version check-fpm-dependency \
 	profile docs docs-deps docs-tables docs-stability docs-performance mpi test-mpi scaling \
@@ -154,6 +156,15 @@ bench-models-data: deps include-digest
 bench-models: bench-models-data
 	$(FPM) run $(FPM_FLAGS) -- bench --models-section $(BENCH_DIR) > $(BENCH_DIR)/models.md
 	$(PYTHON) tools/replace_section.py docs/performance.md $(BENCH_DIR)/models.md
+
+# What --accuracy delivers (init_for_accuracy) on five systems, in both builds (a minute):
+# the tables of docs/accuracy.md.
+bench-accuracy: deps include-digest
+	mkdir -p $(BENCH_DIR)
+	$(FPM) run $(FPM_FLAGS) -- bench --accuracy --out $(BENCH_DIR)
+	$(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) -- bench --accuracy --out $(BENCH_DIR)
+	$(PYTHON) tools/replace_section.py docs/accuracy.md $(BENCH_DIR)/accuracy.md
+	$(PYTHON) tools/replace_section.py docs/accuracy.md $(BENCH_DIR)/accuracy64.md
 
 # The long runs (planar pendulum to T = 1e4 and 1e5, spherical pendulum to 1e4) against
 # heyoka, into $(BENCH_DIR)/long.csv; about an hour of CPU. Then docs/performance.md again.

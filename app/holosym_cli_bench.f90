@@ -29,6 +29,7 @@ module holosym_cli_bench
     use holosym_systems, only: make_system, system_choices, max_links
     use holosym_output, only: output_t, open_output, make_directories, remove_file, &
         run_program, command_text, text_t, read_text_file, append_text, write_lines
+    use holosym_bench_accuracy, only: run_accuracy
     use holosym_bench_scaling, only: scaling_point, scaling_links, scaling_header, &
         general_links_limit
     use holosym_bench_long, only: run_long
@@ -85,6 +86,7 @@ module holosym_cli_bench
         logical :: scaling = .false.                 !! the chain scaling study instead
         logical :: long = .false.                    !! the long runs instead
         logical :: models = .false.                  !! model files against built-ins instead
+        logical :: accuracy = .false.                !! what --accuracy delivers, instead
         character(len=:), allocatable :: models_section !! only print this DIR's model section
         integer :: scaling_point = 0                 !! one chain of K links (internal)
         logical :: general = .false.                 !! with --scaling-point: general path
@@ -139,6 +141,11 @@ contains
             "                   256 from model files in DIR/models/ (DIR/model_scaling.csv;", &
             "                   64.csv files in the real64 build; make bench-models)", &
             "  --models-section DIR  print the model-file section of DIR/performance.md", &
+            "  --accuracy       instead: what --accuracy delivers on the pendulum, linkage,", &
+            "                   planar, double and magnetic systems to T = 10, requests", &
+            "                   1e-8 .. 1e-30 (real64 1e-6 .. 1e-12): plan, estimate, error", &
+            "                   reached, seconds (DIR/accuracy.csv, accuracy.md; 64 in the", &
+            "                   real64 build; make bench-accuracy)", &
             "  --no-per-step    skip the per-step comparison", &
             "  --reference FILE read the reference states (the real64 build uses the", &
             "                   real128 one)", &
@@ -188,6 +195,8 @@ contains
                 options%long = .true.
             case ("--models")
                 options%models = .true.
+            case ("--accuracy")
+                options%accuracy = .true.
             case ("--general")
                 options%general = .true.
             case ("--out", "--systems", "--Mmax", "--order", "--budget", "--reference", &
@@ -1095,6 +1104,12 @@ contains
         if (options%scaling_point > 0) then
             call scaling_point(options%scaling_point, options%general, options%quick, &
                                out, status)
+            call finish(status)
+            return
+        end if
+        if (options%accuracy) then
+            call make_directories(options%out_dir, status)
+            if (status%ok()) call run_accuracy(options%out_dir, err_unit, status)
             call finish(status)
             return
         end if

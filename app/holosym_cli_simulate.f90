@@ -438,10 +438,11 @@ contains
                 real_str(config%accuracy) // " at T = " // real_str(config%final_time) // &
                 ": estimated error " // real_str(plan%estimate) // ", Newton tolerance " // &
                 real_str(plan%newton_tolerance) // " (pilot: " // int_str(plan%pilot_steps) // &
-                " steps to t = " // real_str(plan%pilot_span) // ", finest h = " // &
-                real_str(plan%pilot_h) // ", error ratio " // real_str(plan%observed_ratio) // &
-                " where 2^(2M) = " // real_str(2.0_wp**(2 * plan%order_m)) // &
-                " is asymptotic; 0: at round-off)"
+                " steps; asymptotic at h = " // real_str(plan%pilot_h) // " on [0, " // &
+                real_str(plan%pilot_span) // "], ratio " // real_str(plan%observed_ratio) // &
+                " for 2^(2M) = " // real_str(2.0_wp**(2 * plan%order_m)) // &
+                " (0: at round-off); error measured over [0, " // &
+                real_str(plan%covered_span) // "])"
         else
             call integrator%init(sys, order(1), order(2), order(3), status)
             if (.not. status%ok()) return

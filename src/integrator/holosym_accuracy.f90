@@ -5,18 +5,23 @@
 !! integrator with them.
 !!
 !! Error model. The method has order 2M: the error of one run to T with step h is about
-!! C T h^(2M) for regular motion (phase errors grow linearly in time). The pilot measures
-!! C on the first tenth of the span: runs with steps h_p, h_p/2, h_p/4 from the start
-!! (step doubling), whose differences d1, d2 give the error of the finest run as
-!! d2 / (2^(2M) - 1) once their ratio d1/d2 shows the asymptotic 2^(2M) (h_p is halved until
-!! it does). The error at T is that times T / T_pilot, and h is chosen to meet half the
-!! request (never above the largest pilot step found asymptotic), rounded so that T is a
-!! whole number of steps. The Newton tolerance is the request spread over the steps (at
-!! least 8 epsilon): a loose request needs no working-precision residual at all.
+!! C T h^(2M) for regular motion (phase errors grow linearly in time). The pilot first
+!! finds a step in the asymptotic range on the first tenth of the span: runs with steps
+!! h_p, h_p/2, h_p/4 (h_p the whole tenth at first), whose differences d1, d2 have the
+!! ratio 2^(2M) there (h_p is halved until d1/d2 is at least a quarter of it, or a run
+!! fails). It then measures the error constant over the span itself (its first 1000
+!! coarse steps when longer): runs with 2 h and h (h the finest pilot step) whose
+!! difference d gives the error of the finer, d / (2^(2M) - 1), extrapolated linearly to
+!! T. The whole span is needed: a motion that starts slowly (the spring-linkage, released
+!! at rest) has errors after the first tenth orders of magnitude below those at T. The
+!! step is chosen to meet half the request (never coarser than the coarse span run),
+!! rounded so that T is a whole number of steps; the Newton tolerance is the request
+!! spread over the steps (at least 8 epsilon): a loose request needs no
+!! working-precision residual at all. docs/accuracy.md has the measurements.
 !!
-!! What the model cannot see: motion whose errors grow faster than linearly (chaos, a
-!! separatrix) is under-estimated by the linear extrapolation; requests near the round-off
-!! of the working precision (about 1e-31 for a state of size 1 in real128) are refused.
+!! What the model cannot see: motion whose errors grow faster than linearly between the
+!! span measured and T (chaos, a separatrix); requests below the round-off of the working
+!! precision (`accuracy_floor`) are refused.
 module holosym_accuracy
     use holosym_kinds, only: wp, wp_is_double
     use holosym_status_codes, only: holosym_status_t, set_status, real_str, int_str, &
@@ -36,17 +41,26 @@ module holosym_accuracy
         real(wp) :: newton_tolerance = 0  !! the integrator's `newton%tolerance`
         real(wp) :: estimate = 0          !! predicted max |error| of q and p at T
         real(wp) :: pilot_h = 0           !! finest step of the pilot
-        real(wp) :: pilot_span = 0        !! span of the pilot runs
+        real(wp) :: pilot_span = 0        !! span of the pilot's search for the asymptotic step
+        real(wp) :: covered_span = 0      !! span of the runs that measured the error constant
         real(wp) :: observed_ratio = 0    !! d1 / d2 of the pilot (2^(2M) when asymptotic)
         integer :: pilot_steps = 0        !! steps the pilot took, all runs together
     end type accuracy_plan_t
 
-    !> Share of the span the pilot runs over.
+    !> Share of the span over which the pilot finds the asymptotic step.
     real(wp), parameter :: pilot_fraction = 0.1_wp
-    !> The pilot's first step: the pilot span in this many steps (halved from there).
-    integer, parameter :: pilot_first_steps = 1
-    !> Halvings of the pilot step tried before the pilot gives up on the asymptotic regime.
-    integer, parameter :: pilot_halvings = 8
+    !> The error constant is measured over the span, or over its first this many coarse
+    !! pilot steps when it is longer (a long run's error is extrapolated linearly from
+    !! there: the pilot then costs a bounded fraction of the run).
+    integer, parameter :: span_steps = 1000
+    !> ... and its coarse step is halved at most this many times when a run fails there.
+    integer, parameter :: span_halvings = 4
+    !> The search for the asymptotic step runs at most this many coarse steps (from the
+    !! start) per step size tried: its span shrinks with the step beyond.
+    integer, parameter :: pilot_steps_max = 4
+    !> Halvings of the pilot step tried before the pilot gives up on the asymptotic regime
+    !! (the first tenth of the span over 2^40 at the last).
+    integer, parameter :: pilot_halvings = 40
     !> The pilot differences are asymptotic when their ratio is at least this share of
     !! 2^(2M) (the next term of the error expansion, and the first steps' transient, move
     !! it a little).
@@ -98,7 +112,11 @@ contains
         end if
         call choose_order(tolerance, plan)
         plan%pilot_span = pilot_fraction * T
-        call pilot(integ, sys, q, p, plan, scale, error_pilot, local)
+        ! One set-up for every pilot run (each starts afresh from (q, p)); the system is
+        ! checked (when the integrator checks systems) by the first run only.
+        integ%newton%tolerance = 8 * epsilon(1.0_wp)
+        call integ%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
+        if (local%ok()) call pilot(integ, sys, q, p, plan, scale, error_pilot, local)
         if (local%ok()) call full_span(integ, sys, q, p, T, plan, scale, error_full, h_full, &
                                        local)
         if (.not. local%ok()) then
@@ -168,16 +186,21 @@ contains
         real(wp), intent(out) :: error
         type(holosym_status_t), intent(out) :: status
         real(wp), allocatable :: end(:, :)
-        real(wp) :: d1, d2, floor, ideal
+        real(wp) :: d1, d2, floor, ideal, h_coarse, pilot_span_max
         integer :: halving, steps, k
 
         allocate (end(2 * sys%n, 3))
         floor = roundoff_epsilons * epsilon(1.0_wp) * max(scale, 1.0_wp)
         ideal = 2.0_wp**(2 * plan%order_m)
-        steps = pilot_first_steps
+        pilot_span_max = plan%pilot_span
         error = 0
         do halving = 0, pilot_halvings
-            plan%pilot_h = plan%pilot_span / (4 * steps)
+            ! Coarse step h_c = T_pilot / 2^halving over min(2^halving, pilot_steps_max)
+            ! of its steps: the span of the test shrinks with h_c once it has that many.
+            h_coarse = pilot_span_max / 2.0_wp**halving
+            steps = min(2**min(halving, 30), pilot_steps_max)
+            plan%pilot_span = steps * h_coarse
+            plan%pilot_h = h_coarse / 4
             ! A step too large for Newton or the root check is one the motion does not
             ! resolve yet: halve it.
             do k = 1, 3
@@ -185,10 +208,7 @@ contains
                                end(:, k), status)
                 if (.not. status%ok()) exit
             end do
-            if (.not. status%ok()) then
-                steps = 2 * steps
-                cycle
-            end if
+            if (.not. status%ok()) cycle
             d1 = maxval(abs(end(:, 1) - end(:, 2)))
             d2 = maxval(abs(end(:, 2) - end(:, 3)))
             if (d2 <= floor) then
@@ -203,7 +223,6 @@ contains
                 error = d2 / (ideal - 1)
                 return
             end if
-            steps = 2 * steps
         end do
         if (.not. status%ok()) return
         call set_status(status, HOLOSYM_INVALID_ARGUMENT, "the pilot found no step size " // &
@@ -213,10 +232,11 @@ contains
             " of the span")
     end subroutine pilot
 
-    !> The error at T: runs over the whole span with the coarsest step the pilot found
-    !! asymptotic (h_c, as a whole fraction of T) and with h_c/2, their difference d giving
-    !! the error of the finer, d / (2^(2M) - 1), in `error` at step `h_fine` (h_c halved
-    !! while a run fails: the motion may be faster later than at the start).
+    !> The error at T: runs over the span (at most `span_steps` coarse steps of it) with
+    !! the coarse step h_c = 2 pilot_h and with h_c/2, their difference d giving the error
+    !! of the finer, d / (2^(2M) - 1), extrapolated linearly from the span covered to T; in
+    !! `error` at step `h_fine` (h_c halved while a run fails: the motion may be faster
+    !! later than at the start).
     subroutine full_span(integ, sys, q, p, T, plan, scale, error, h_fine, status)
         type(constrained_integrator), intent(inout) :: integ
         class(constrained_hamiltonian), intent(in), target :: sys
@@ -225,30 +245,38 @@ contains
         real(wp), intent(out) :: error, h_fine
         type(holosym_status_t), intent(out) :: status
         real(wp), allocatable :: end(:, :)
-        real(wp) :: d, floor, ideal
+        real(wp) :: d, floor, ideal, covered, coarse
         integer :: halving, steps
         allocate (end(2 * sys%n, 2))
         floor = roundoff_epsilons * epsilon(1.0_wp) * max(scale, 1.0_wp)
         ideal = 2.0_wp**(2 * plan%order_m)
-        steps = max(1, ceiling(T / (2 * plan%pilot_h)))
+        coarse = 2 * plan%pilot_h
         error = 0
         h_fine = 0
-        do halving = 0, pilot_halvings
-            call pilot_run(integ, sys, q, p, plan, T, steps, end(:, 1), status)
-            if (status%ok()) call pilot_run(integ, sys, q, p, plan, T, 2 * steps, end(:, 2), &
-                                            status)
+        do halving = 0, span_halvings
+            ! The whole span, or its first `span_steps` coarse steps.
+            steps = max(1, ceiling(T / coarse))
+            covered = T
+            if (steps > span_steps) then
+                steps = span_steps
+                covered = span_steps * coarse
+            end if
+            call pilot_run(integ, sys, q, p, plan, covered, steps, end(:, 1), status)
+            if (status%ok()) call pilot_run(integ, sys, q, p, plan, covered, 2 * steps, &
+                                            end(:, 2), status)
             if (status%ok()) exit
-            steps = 2 * steps
+            coarse = coarse / 2
         end do
         if (.not. status%ok()) return
-        h_fine = T / (2 * steps)
+        h_fine = covered / (2 * steps)
+        plan%covered_span = covered
         d = maxval(abs(end(:, 1) - end(:, 2)))
         ! At round-off the difference bounds the error from above.
-        error = max(d, floor) / (ideal - 1)
+        error = max(d, floor) / (ideal - 1) * (T / covered)
     end subroutine full_span
 
-    !> One pilot run: `steps` steps to `span` at the plan's (M, N, G) with the default
-    !! Newton tolerance; the end state (q, p) in `end`.
+    !> One pilot run: `steps` steps to `span` with `integ` as set up for the pilot (the
+    !! plan's (M, N, G), the default Newton tolerance); the end state (q, p) in `end`.
     subroutine pilot_run(integ, sys, q, p, plan, span, steps, end, status)
         type(constrained_integrator), intent(inout) :: integ
         class(constrained_hamiltonian), intent(in), target :: sys
@@ -258,9 +286,6 @@ contains
         real(wp), intent(out) :: end(:)
         type(holosym_status_t), intent(out) :: status
         real(wp) :: qk(size(q)), pk(size(p))
-        integ%newton%tolerance = 8 * epsilon(1.0_wp)
-        call integ%init(sys, plan%order_m, plan%order_n, plan%gauss_points, status)
-        if (.not. status%ok()) return
         qk = q
         pk = p
         call integ%integrate(sys, qk, pk, span / steps, steps, status=status)
