@@ -408,7 +408,7 @@ contains
     subroutine newton_settings_act(error)
         type(test_error_t), allocatable, intent(out) :: error
         type(pendulum_chain) :: sys
-        type(constrained_integrator) :: integ
+        type(constrained_integrator) :: integ, runs(3)
         type(holosym_status_t) :: status
         real(wp) :: q(16), p(16), q_default(16), p_default(16), q0(16), p0(16), theta(8)
         integer :: trial
@@ -428,20 +428,19 @@ contains
         do trial = 1, 3
             q = q0
             p = p0
-            integ = constrained_integrator()
             select case (trial)
             case (2)
-                integ%newton%contraction_limit = 1.0e-30_wp
+                runs(trial)%newton%contraction_limit = 1.0e-30_wp
             case (3)
-                integ%newton%contraction_limit = 0.1_wp
-                integ%newton%jacobian_cost = 1
+                runs(trial)%newton%contraction_limit = 0.1_wp
+                runs(trial)%newton%jacobian_cost = 1
             end select
-            call integ%init(sys, 4, 3, 5, status)
-            call integ%integrate(sys, q, p, 0.05_wp, 20, status=status)
+            call runs(trial)%init(sys, 4, 3, 5, status)
+            call runs(trial)%integrate(sys, q, p, 0.05_wp, 20, status=status)
             call check_status_code(error, status%code, HOLOSYM_SUCCESS, "trial " // &
                 int_str(trial))
             if (allocated(error)) return
-            factorizations(trial) = integ%stats%lu_factorizations
+            factorizations(trial) = runs(trial)%stats%lu_factorizations
             if (trial == 1) then
                 q_default = q
                 p_default = p
