@@ -14,6 +14,8 @@ module holosym_cli_ensemble
     use holosym_status_codes, only: holosym_status_t, status_code_name, int_str, real_str, &
         HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
+    use holosym_integrator, only: constrained_integrator
+    use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
     use holosym_task_farm, only: task_farm, openmp_farm
     use holosym_ensemble, only: ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
         run_ensemble, check_ensemble, perturbed_states
@@ -45,6 +47,9 @@ module holosym_cli_ensemble
         integer :: gauss_points = 3              !! G (default max(M, N) + 1)
         real(wp) :: step_size = 0.0625_wp        !! default h
         real(wp) :: final_time = 10.0_wp         !! default T
+        !> --accuracy: the max |error| wanted at T (0: not given); (M, N, G), h and the
+        !! Newton tolerance are then planned from the system's start (`init_for_accuracy`).
+        real(wp) :: accuracy = 0
         character(len=:), allocatable :: states  !! states CSV ("" with --perturb)
         integer :: perturb = 0                   !! number of generated states (0: none)
         real(wp) :: scale = 1.0e-3_wp            !! perturbation size
@@ -99,6 +104,9 @@ contains
             "  --M, --N, --G   the scheme: M 1..30, N 0..30, G N+1..64      [2, M-1, max(M,N)+1]", &
             "  --h REAL        step size of rows without their own h        [0.0625]", &
             "  --T REAL        final time of rows without their own T       [10]", &
+            "  --accuracy TOL  the max |error| wanted at T, in (0, 1): (M, N, G), h and the", &
+            "                  Newton tolerance planned from the system's start (as", &
+            "                  simulate --accuracy; not with --M, --N, --G, --h)", &
             "  --output FILE   results CSV (required; an existing file is refused unless", &
             "                  --resume)", &
             "  --timing FILE   CPU and wall seconds per trajectory [OUTPUT without .csv,", &
@@ -133,8 +141,10 @@ contains
         type(holosym_status_t), intent(out) :: status   !! outcome
         character(len=:), allocatable :: name, inline, value
         logical :: has_inline, n_given, g_given, every_given, timing_given, taken
+        character(len=:), allocatable :: chosen
         integer :: i
 
+        chosen = ""
         config%states = ""
         config%output = ""
         config%timing = ""
@@ -162,12 +172,19 @@ contains
                 if (name == "--quiet") config%quiet = .true.
             case ("--system", "--model", "--set", "--M", "--N", "--G", "--h", "--T", &
                   "--states", "--perturb", "--scale", "--seed", "--output", "--timing", &
-                  "--samples", "--every", "--threads")
+                  "--samples", "--every", "--threads", "--accuracy")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
                 call config%source%take(name, value, taken, status)
                 if (.not. status%ok()) return
                 select case (name)
+                case ("--M", "--N", "--G", "--h")
+                    chosen = name
+                end select
+                select case (name)
+                case ("--accuracy")
+                    call parse_real(name, value, config%accuracy, status)
+                    call require(config%accuracy > 0 .and. config%accuracy < 1, "in (0, 1)")
                 case ("--M")
                     call parse_integer_in(name, value, 1, max_order_m, config%order_m, status)
                 case ("--N")
@@ -218,7 +235,12 @@ contains
         call default_orders(config%order_m, config%order_n, config%gauss_points, n_given, &
                             g_given, status)
         if (.not. status%ok()) return
-        if (.not. steps_fit(config%final_time, config%step_size)) then
+        if (config%accuracy > 0 .and. len(chosen) > 0) then
+            call fail(status, "option --accuracy chooses (M, N, G) and h; it cannot be " // &
+                "combined with " // chosen)
+        else if (config%accuracy > 0 .and. .not. config%final_time > 0) then
+            call fail(status, "option --accuracy needs --T > 0")
+        else if (.not. steps_fit(config%final_time, config%step_size)) then
             call fail(status, "options --T and --h: T/h must give 1 to " // &
                 int_str(huge(1)) // " steps (or T = 0)")
         else if (len(config%states) > 0 .eqv. config%perturb > 0) then
@@ -340,6 +362,38 @@ contains
         end if
     end subroutine ensemble_command
 
+    !> --accuracy: the plan of `init_for_accuracy` from the system's start (q0, p0) to
+    !! --T, into the ensemble's settings (the scheme, h, the Newton tolerance); its line on
+    !! `err_unit` when `tell`.
+    subroutine plan_ensemble(config, sys, q0, p0, settings, tell, err_unit, status)
+        type(ensemble_config_t), intent(in) :: config
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q0(:), p0(:)
+        type(ensemble_settings_t), intent(inout) :: settings
+        logical, intent(in) :: tell
+        integer, intent(in) :: err_unit
+        type(holosym_status_t), intent(out) :: status
+        type(constrained_integrator) :: planner
+        type(accuracy_plan_t) :: plan
+        call init_for_accuracy(planner, sys, q0, p0, config%accuracy, config%final_time, &
+                               plan, status)
+        if (.not. status%ok()) then
+            status%message = "--accuracy: " // status%message
+            return
+        end if
+        settings%order_m = plan%order_m
+        settings%order_n = plan%order_n
+        settings%gauss_points = plan%gauss_points
+        settings%step_size = plan%h
+        settings%integrator%newton%tolerance = plan%newton_tolerance
+        if (tell) write (err_unit, '(a)') "holosym ensemble: --accuracy " // &
+            real_str(config%accuracy) // " at T = " // real_str(config%final_time) // &
+            " from the system's start: h = " // real_str(plan%h) // ", estimated error " // &
+            real_str(plan%estimate) // ", Newton tolerance " // &
+            real_str(plan%newton_tolerance) // " (pilot: " // int_str(plan%pilot_steps) // &
+            " steps)"
+    end subroutine plan_ensemble
+
     !> Run a parsed `ensemble` command on a farm.
     subroutine run_ensemble_command(config, farm, err_unit, exit_code)
         type(ensemble_config_t), intent(in) :: config !! the options
@@ -377,6 +431,8 @@ contains
         settings%gauss_points = config%gauss_points
         settings%step_size = config%step_size
         settings%final_time = config%final_time
+        if (status%ok() .and. config%accuracy > 0) call plan_ensemble(config, sys, q0, p0, &
+            settings, collector .and. .not. config%quiet, err_unit, status)
         settings%every = config%every
         settings%project = config%project .or. config%perturb > 0
         if (status%ok()) call check_ensemble(sys, states, settings, status)
@@ -387,10 +443,13 @@ contains
         if (.not. config%quiet) sink%progress_unit = err_unit
         if (.not. allocated(identity)) identity = config%source%label()
         description = "holosym ensemble system=" // identity // " M=" // &
-            int_str(config%order_m) // " N=" // int_str(config%order_n) // " G=" // &
-            int_str(config%gauss_points) // " h=" // csv_real(config%step_size) // " T=" // &
+            int_str(settings%order_m) // " N=" // int_str(settings%order_n) // " G=" // &
+            int_str(settings%gauss_points) // " h=" // csv_real(settings%step_size) // " T=" // &
             csv_real(config%final_time) // " project=" // &
             trim(merge("yes", "no ", settings%project)) // " every=" // int_str(config%every)
+        if (config%accuracy > 0) description = description // " accuracy=" // &
+            csv_real(config%accuracy) // " newton_tolerance=" // &
+            csv_real(settings%integrator%newton%tolerance)
         if (status%ok()) description = description // " states=" // states_digest(states)
         ! Only the collector owns the results file; every process learns whether it opened.
         if (status%ok() .and. collector) call sink%open(config%output, config%timing, &
@@ -403,8 +462,8 @@ contains
         if (.not. allocated(skip)) allocate (skip(size(states%id)), source=.false.)
         if (collector .and. .not. config%quiet) write (err_unit, '(a)') &
             "holosym ensemble: " // config%source%label() // " (n = " // int_str(sys%n) // &
-            ", m = " // int_str(sys%m) // "), (M, N, G) = (" // int_str(config%order_m) // &
-            ", " // int_str(config%order_n) // ", " // int_str(config%gauss_points) // "), " &
+            ", m = " // int_str(sys%m) // "), (M, N, G) = (" // int_str(settings%order_m) // &
+            ", " // int_str(settings%order_n) // ", " // int_str(settings%gauss_points) // "), " &
             // int_str(size(states%id)) // " trajectories, " // int_str(count(skip)) // &
             " already done, " // int_str(count(.not. skip)) // " to run on " // &
             workers_text(farm, config%threads)

@@ -12,7 +12,7 @@ module test_accuracy
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy, accuracy_floor
     use holosym_test_systems, only: builtin_system
     use holosym_test_commands, only: text_line_t, read_lines, command_result_t, run_holosym, &
-        any_line_contains
+        any_line_contains, scratch_path, reset_scratch
     use test_models, only: reference_values
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
@@ -31,7 +31,8 @@ contains
             new_test("paper_systems_within_10x", paper_systems), &
             new_test("independent_references_within_10x", independent_systems), &
             new_test("bad_requests_refused", bad_requests), &
-            new_test("cli_prints_its_choice", cli_accuracy) &
+            new_test("cli_prints_its_choice", cli_accuracy), &
+            new_test("ensemble_planned_from_the_start", ensemble_accuracy) &
         ]
     end function accuracy_tests
 
@@ -224,5 +225,34 @@ contains
         call check(error, run%exit_code == 2 .and. any_line_contains(run%err, "(0, 1)"), &
             "--accuracy 2: exit " // int_str(run%exit_code))
     end subroutine cli_accuracy
+
+    !> `holosym ensemble --accuracy 1e-20 --T 10` plans from the system's start, says so,
+    !! records the request in the results file's first line and runs every trajectory;
+    !! --accuracy with --h is refused.
+    subroutine ensemble_accuracy(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: run
+        type(text_line_t), allocatable :: lines(:)
+        character(len=:), allocatable :: dir
+        integer :: ios
+        call check(error, reset_scratch(), "cannot make the scratch directory")
+        if (allocated(error)) return
+        dir = scratch_path("")
+        call run_holosym("ensemble --system pendulum --perturb 3 --scale 0.01 --accuracy " &
+            // "1e-20 --T 10 --output " // dir // "/runs.csv", run)
+        call check(error, run%exit_code == 0, "exit " // int_str(run%exit_code))
+        call check(error, any_line_contains(run%err, "--accuracy") .and. &
+            any_line_contains(run%err, "estimated error"), "plan not printed")
+        call read_lines(dir // "/runs.csv", lines, ios)
+        call check(error, ios == 0, "no results file")
+        if (allocated(error)) return
+        call check(error, index(lines(1)%text, " accuracy=") > 0 .and. &
+            index(lines(1)%text, " M=8 ") > 0, "first line: " // lines(1)%text)
+        call check(error, size(lines) == 5, int_str(size(lines)) // " lines, expected 5")
+        call run_holosym("ensemble --system pendulum --perturb 3 --accuracy 1e-20 --h 0.1 " &
+            // "--output " // dir // "/other.csv", run)
+        call check(error, run%exit_code == 2 .and. any_line_contains(run%err, "--h"), &
+            "--accuracy with --h: exit " // int_str(run%exit_code))
+    end subroutine ensemble_accuracy
 
 end module test_accuracy
