@@ -166,8 +166,9 @@ contains
         call check(error, status%ok(), "reference run: " // status%message)
     end subroutine fixed_run
 
-    !> A tolerance outside [accuracy_floor, 1) or not finite, T <= 0 or not finite, and
-    !! states of the wrong size are refused, naming the argument, with q and p unchanged.
+    !> A tolerance outside [accuracy_floor, 1) or not finite, T <= 0 or not finite, a plan
+    !! of more steps than `integrate` counts, and states of the wrong size are refused,
+    !! naming the argument, with q and p unchanged.
     subroutine bad_requests(error)
         type(test_error_t), allocatable, intent(out) :: error
         class(constrained_hamiltonian), allocatable :: sys
@@ -195,6 +196,11 @@ contains
             call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, &
                 "T " // real_str(bad_spans(k)))
         end do
+        ! A plan beyond the step counter: refused after the pilot, saying how many steps.
+        call init_for_accuracy(integ, sys, q, p, 100 * accuracy_floor(1.0_wp), 1.0e12_wp, &
+                               plan, status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "T = 1e12")
+        call check(error, index(status%message, "steps") > 0, "message: " // status%message)
         call init_for_accuracy(integ, sys, q(1:2), p, 1.0e-10_wp, span, plan, status)
         call check_status_code(error, status%code, HOLOSYM_SIZE_MISMATCH, "size of q")
         call check(error, all(q == q0) .and. all(p == p0), "state changed by refusals")
@@ -226,7 +232,8 @@ contains
             "--accuracy 2: exit " // int_str(run%exit_code))
     end subroutine cli_accuracy
 
-    !> `holosym ensemble --accuracy 1e-20 --T 10` plans from the system's start, says so,
+    !> `holosym ensemble --accuracy 1e-20 --T 10` (1e-10 in real64) plans from the system's
+    !! start, says so,
     !! records the request in the results file's first line and runs every trajectory;
     !! --accuracy with --h is refused.
     subroutine ensemble_accuracy(error)
@@ -239,7 +246,8 @@ contains
         if (allocated(error)) return
         dir = scratch_path("")
         call run_holosym("ensemble --system pendulum --perturb 3 --scale 0.01 --accuracy " &
-            // "1e-20 --T 10 --output " // dir // "/runs.csv", run)
+            // trim(merge("1e-10", "1e-20", wp_is_double)) // " --T 10 --output " // dir // &
+            "/runs.csv", run)
         call check(error, run%exit_code == 0, "exit " // int_str(run%exit_code))
         call check(error, any_line_contains(run%err, "--accuracy") .and. &
             any_line_contains(run%err, "estimated error"), "plan not printed")
@@ -247,7 +255,8 @@ contains
         call check(error, ios == 0, "no results file")
         if (allocated(error)) return
         call check(error, index(lines(1)%text, " accuracy=") > 0 .and. &
-            index(lines(1)%text, " M=8 ") > 0, "first line: " // lines(1)%text)
+            index(lines(1)%text, merge(" M=6 ", " M=8 ", wp_is_double)) > 0, &
+            "first line: " // lines(1)%text)
         call check(error, size(lines) == 5, int_str(size(lines)) // " lines, expected 5")
         call run_holosym("ensemble --system pendulum --perturb 3 --accuracy 1e-20 --h 0.1 " &
             // "--output " // dir // "/other.csv", run)

@@ -25,7 +25,8 @@
 module holosym_accuracy
     use holosym_kinds, only: wp, wp_is_double
     use holosym_status_codes, only: holosym_status_t, set_status, real_str, int_str, &
-        is_finite, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH
+        is_finite, is_system_fault, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
+        HOLOSYM_SIZE_MISMATCH
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator
     implicit none
@@ -71,6 +72,9 @@ module holosym_accuracy
     !> Pilot differences below this many epsilons of the state's size are round-off: the
     !! coarser difference then bounds the error.
     real(wp), parameter :: roundoff_epsilons = 1000
+    !> The most steps a plan may take (the step counter of `integrate` is a default
+    !! integer).
+    integer, parameter :: max_steps = huge(1) / 2
     !> The Newton tolerance is the request over this many times the steps (per-step Newton
     !! errors add up at most linearly).
     real(wp), parameter :: newton_share = 4
@@ -127,6 +131,13 @@ contains
         ! coarser than the coarse full-span run.
         h = h_full * (tolerance / (safety * error_full))**(1.0_wp / (2 * plan%order_m))
         h = min(h, 2 * h_full)
+        if (T / h > max_steps) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "the plan for " // &
+                real_str(tolerance) // " at T = " // real_str(T) // " needs " // &
+                real_str(T / h) // " steps, more than " // int_str(max_steps) // &
+                ": ask for less accuracy or a shorter T")
+            return
+        end if
         plan%steps = max(1, ceiling(T / h))
         plan%h = T / plan%steps
         plan%estimate = error_full * (plan%h / h_full)**(2 * plan%order_m)
@@ -208,7 +219,11 @@ contains
                                end(:, k), status)
                 if (.not. status%ok()) exit
             end do
-            if (.not. status%ok()) cycle
+            if (.not. status%ok()) then
+                ! NaN or a refused point is the system's answer, not a step too large.
+                if (is_system_fault(status%code)) return
+                cycle
+            end if
             d1 = maxval(abs(end(:, 1) - end(:, 2)))
             d2 = maxval(abs(end(:, 2) - end(:, 3)))
             if (d2 <= floor) then
@@ -255,16 +270,18 @@ contains
         h_fine = 0
         do halving = 0, span_halvings
             ! The whole span, or its first `span_steps` coarse steps.
-            steps = max(1, ceiling(T / coarse))
             covered = T
-            if (steps > span_steps) then
+            if (T / coarse > span_steps) then
                 steps = span_steps
                 covered = span_steps * coarse
+            else
+                steps = max(1, ceiling(T / coarse))
             end if
             call pilot_run(integ, sys, q, p, plan, covered, steps, end(:, 1), status)
             if (status%ok()) call pilot_run(integ, sys, q, p, plan, covered, 2 * steps, &
                                             end(:, 2), status)
             if (status%ok()) exit
+            if (is_system_fault(status%code)) return
             coarse = coarse / 2
         end do
         if (.not. status%ok()) return
