@@ -1,9 +1,10 @@
 !> `holosym bench --accuracy`: what `init_for_accuracy` (`--accuracy TOL`) delivers. For
 !! the spherical pendulum, the spring-linkage, the planar pendulum, the double pendulum
-!! and the magnetic sphere to T = 10 and requests 1e-8 .. 1e-30 (real64: 1e-6 .. 1e-12):
-!! the plan, its estimate, the error reached against a reference, and the CPU seconds of
-!! the pilot and of the run. The reference is 1280 steps of (8, 7, 9) (real64: 640 of
-!! (6, 5, 7)), checked against half as many steps (the difference is in the table).
+!! and the magnetic sphere to T = 10 and requests 1e-8 .. 1e-30 (real64: 1e-6 .. 1e-12),
+!! and the two pendula to T = 1000: the plan, its estimate, the error reached against a
+!! reference, and the CPU seconds of the pilot and of the run. The reference is 1280 steps
+!! of (8, 7, 9) to T = 10 (real64: 640 of (6, 5, 7)), 32000 to T = 1000, checked against
+!! half as many steps (the difference is in the CSV file).
 !! Writes DIR/accuracy.csv (accuracy64.csv) and DIR/accuracy.md (accuracy64.md).
 module holosym_bench_accuracy
     use, intrinsic :: iso_fortran_env, only: real64
@@ -19,10 +20,13 @@ module holosym_bench_accuracy
 
     public :: run_accuracy
 
-    !> The systems and the span of the study.
+    !> The systems of the study to T = 10, and those also run to T = 1000 (the long runs:
+    !! the linear growth of the error between the span the pilot measures and T).
     character(len=*), parameter :: systems(5) = [character(len=8) :: "pendulum", "linkage", &
         "planar", "double", "magnetic"]
-    real(wp), parameter :: span = 10
+    character(len=*), parameter :: long_systems(2) = [character(len=8) :: "pendulum", &
+        "planar"]
+    real(wp), parameter :: short_span = 10, long_span = 1000
 
     interface
         !> Does nothing. Its body, in the submodule at the end of this file, keeps this
@@ -57,40 +61,56 @@ contains
         if (.not. status%ok()) return
         call open_output(dir // "/accuracy" // suffix // ".md", md, status)
         if (.not. status%ok()) return
-        call csv%line("system,precision,request,M,N,G,h,steps,newton_tolerance,estimate," // &
+        call csv%line("system,precision,T,request,M,N,G,h,steps,newton_tolerance,estimate," // &
             "error,error_over_request,pilot_seconds,run_seconds,pilot_steps," // &
             "reference_difference")
         call md%line("### " // trim(merge("real64 ", "real128", wp_is_double)))
         call md%line("")
-        call md%line("| system | request | (M,N,G) | h | steps | Newton tol | estimate | " // &
+        call md%line("| system | T | request | (M,N,G) | h | steps | Newton tol | estimate | " // &
             "error at T | error / request | pilot s | run s |")
-        call md%line("|---|---|---|---|---|---|---|---|---|---|---|")
+        call md%line("|---|---|---|---|---|---|---|---|---|---|---|---|")
         do s = 1, size(systems)
-            call system_rows(trim(systems(s)), csv, md, err_unit, status)
+            call system_rows(trim(systems(s)), short_span, requests(), csv, md, err_unit, &
+                             status)
+            if (.not. status%ok()) return
+        end do
+        do s = 1, size(long_systems)
+            call system_rows(trim(long_systems(s)), long_span, long_requests(), csv, md, &
+                             err_unit, status)
             if (.not. status%ok()) return
         end do
         call csv%close(status)
         if (status%ok()) call md%close(status)
     end subroutine run_accuracy
 
-    !> The rows of one system: its reference, then every request.
-    subroutine system_rows(name, csv, md, err_unit, status)
+    !> The requests of the long runs.
+    function long_requests() result(list)
+        real(wp), allocatable :: list(:)
+        if (wp_is_double) then
+            list = [1.0e-8_wp]
+        else
+            list = [1.0e-14_wp, 1.0e-20_wp, 1.0e-26_wp]
+        end if
+    end function long_requests
+
+    !> The rows of one system to T = span: its reference, then every request of `list`.
+    subroutine system_rows(name, span, list, csv, md, err_unit, status)
         character(len=*), intent(in) :: name
+        real(wp), intent(in) :: span, list(:)
         type(output_t), intent(inout) :: csv, md
         integer, intent(in) :: err_unit
         type(holosym_status_t), intent(out) :: status
         class(constrained_hamiltonian), allocatable :: sys
         type(constrained_integrator) :: integ
         type(accuracy_plan_t) :: plan
-        real(wp), allocatable :: q0(:), p0(:), q(:), p(:), q_ref(:), p_ref(:), list(:)
+        real(wp), allocatable :: q0(:), p0(:), q(:), p(:), q_ref(:), p_ref(:)
         real(wp) :: difference, achieved
         real(real64) :: start, planned, done
         integer :: k
         call make_system(name, sys, q0, p0, status)
         if (.not. status%ok()) return
-        call reference(sys, q0, p0, q_ref, p_ref, difference, status)
+        call reference(sys, q0, p0, span, q_ref, p_ref, difference, status)
         if (.not. status%ok()) return
-        list = requests()
         do k = 1, size(list)
             q = q0
             p = p0
@@ -106,14 +126,16 @@ contains
             end if
             achieved = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
             call csv%line(name // "," // trim(merge("real64 ", "real128", wp_is_double)) // &
-                "," // real_str(list(k)) // "," // int_str(plan%order_m) // "," // &
+                "," // real_str(span) // "," // real_str(list(k)) // "," // &
+                int_str(plan%order_m) // "," // &
                 int_str(plan%order_n) // "," // int_str(plan%gauss_points) // "," // &
                 real_str(plan%h) // "," // int_str(plan%steps) // "," // &
                 real_str(plan%newton_tolerance) // "," // real_str(plan%estimate) // "," // &
                 real_str(achieved) // "," // real_str(achieved / list(k)) // "," // &
                 real_str(real(planned - start, wp)) // "," // real_str(real(done - planned, wp)) &
                 // "," // int_str(plan%pilot_steps) // "," // real_str(difference))
-            call md%line("| " // name // " | " // real_str(list(k)) // " | (" // &
+            call md%line("| " // name // " | " // real_str(span) // " | " // &
+                real_str(list(k)) // " | (" // &
                 int_str(plan%order_m) // "," // int_str(plan%order_n) // "," // &
                 int_str(plan%gauss_points) // ") | " // real_str(plan%h) // " | " // &
                 int_str(plan%steps) // " | " // real_str(plan%newton_tolerance) // " | " // &
@@ -125,17 +147,20 @@ contains
         end do
     end subroutine system_rows
 
-    !> The reference state at T and its difference from the run with half the steps.
-    subroutine reference(sys, q0, p0, q_ref, p_ref, difference, status)
+    !> The reference state at T = span and its difference from the run with half the
+    !! steps: 128 steps per time unit of (8, 7, 9) (real64: 64 of (6, 5, 7)) to T = 10, 32
+    !! per unit to T = 1000.
+    subroutine reference(sys, q0, p0, span, q_ref, p_ref, difference, status)
         class(constrained_hamiltonian), intent(in) :: sys
-        real(wp), intent(in) :: q0(:), p0(:)
+        real(wp), intent(in) :: q0(:), p0(:), span
         real(wp), allocatable, intent(out) :: q_ref(:), p_ref(:)
         real(wp), intent(out) :: difference
         type(holosym_status_t), intent(out) :: status
         type(constrained_integrator) :: integ
         real(wp), allocatable :: q(:), p(:)
         integer :: steps, order_m
-        steps = merge(640, 1280, wp_is_double)
+        steps = nint(span) * merge(64, 128, wp_is_double)
+        if (span > short_span) steps = nint(span) * 32
         order_m = merge(6, 8, wp_is_double)
         q_ref = q0
         p_ref = p0
