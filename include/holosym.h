@@ -201,6 +201,15 @@ int holosym_energy(holosym_integrator *integrator, const holosym_real *q,
 int holosym_constraint(holosym_integrator *integrator, const holosym_real *q,
                        holosym_real *phi);
 
+/* Set the integrator up for an error *tolerance (max |error| of q and p) at time *T from
+ * (q, p): holosym chooses M, N, G (into orders[0..2] unless orders is NULL), the step *h,
+ * the *steps to T and the Newton tolerance from a pilot (docs/accuracy.md); then
+ * holosym_integrate(integrator, q, p, *h, *steps, ...). On failure the integrator keeps
+ * its set-up and the outputs are unchanged. */
+int holosym_plan_accuracy(holosym_integrator *integrator, const holosym_real *q,
+                          const holosym_real *p, const holosym_real *tolerance,
+                          const holosym_real *T, holosym_real *h, int *steps, int *orders);
+
 #ifdef __cplusplus
 }
 #endif

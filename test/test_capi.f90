@@ -6,8 +6,9 @@
 module test_capi
     use, intrinsic :: iso_c_binding, only: c_int, c_ptr, c_funptr, c_funloc, c_null_ptr, &
         c_null_funptr, c_associated, c_loc, c_char, c_f_pointer
-    use holosym_kinds, only: wp
-    use holosym_status_codes, only: HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
+    use holosym_kinds, only: wp, wp_is_double
+    use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
+    use holosym_status_codes, only: real_str, int_str, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_STEP_SIZE, &
         HOLOSYM_NOT_INITIALIZED, HOLOSYM_OUTSIDE_DOMAIN, HOLOSYM_USER_ABORT, &
         HOLOSYM_INVALID_MODEL, holosym_status_t, status_code_table
@@ -19,7 +20,8 @@ module test_capi
         holosym_model_set_parameter, holosym_model_get_parameter, &
         holosym_model_initial_state, holosym_model_parameter_count, holosym_model_name, &
         holosym_step_p, holosym_integrate_p, holosym_dense_output_p, &
-        holosym_model_set_parameter_p, holosym_energy, holosym_constraint, name_parameter_c, name_coordinate_c, name_momentum_c
+        holosym_model_set_parameter_p, holosym_energy, holosym_constraint, &
+        holosym_plan_accuracy, name_parameter_c, name_coordinate_c, name_momentum_c
     use holosym_formula_model, only: formula_model, load_model
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
@@ -43,7 +45,8 @@ contains
             new_test("null_arrays_refused", null_arrays), &
             new_test("destroyed_and_foreign_handles_refused", dead_handles), &
             new_test("header_and_docs_follow_the_status_table", header_codes), &
-            new_test("reals_through_pointers_match_values", pointer_calls)]
+            new_test("reals_through_pointers_match_values", pointer_calls), &
+            new_test("plan_accuracy_as_in_fortran", plan_accuracy)]
     end function capi_tests
 
     ! ---------------------------------------------------------------- C callbacks
@@ -641,6 +644,63 @@ contains
             if (number < 0) text = char(226) // char(136) // char(146) // text
         end function minus
     end subroutine header_codes
+
+    !> holosym_plan_accuracy on the four-bar model gives the plan of init_for_accuracy on
+    !! the same Fortran model (h and steps, and then the same state at T, bit for bit);
+    !! a bad request or a NULL pointer fails with the message, h and steps unchanged.
+    subroutine plan_accuracy(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(kind=c_char), allocatable, target :: text(:)
+        type(c_ptr) :: handle
+        type(formula_model) :: model
+        type(constrained_integrator) :: integ
+        type(accuracy_plan_t) :: plan
+        type(holosym_status_t) :: status
+        real(c_real), target :: q(4), p(4), tolerance, span, h
+        real(wp) :: qf(4), pf(4)
+        integer(c_int), target :: steps, done, orders(3)
+        text = c_text(file_text("example/models/fourbar.hsm"))
+        handle = holosym_model_create(c_loc(text), 2_c_int, 1_c_int, 3_c_int)
+        call check_status_code(error, int(holosym_model_initial_state(handle, c_loc(q), &
+            c_loc(p))), HOLOSYM_SUCCESS, message_of(handle))
+        if (allocated(error)) return
+        tolerance = merge(1.0e-10_c_real, 1.0e-20_c_real, wp_is_double)
+        span = 2
+        h = -1
+        steps = -1
+        call check_status_code(error, int(holosym_plan_accuracy(handle, c_loc(q), c_loc(p), &
+            c_loc(tolerance), c_loc(span), c_loc(h), c_loc(steps), c_loc(orders))), &
+            HOLOSYM_SUCCESS, message_of(handle))
+        if (allocated(error)) return
+        call load_model("example/models/fourbar.hsm", model, status)
+        call model%initial_state(qf, pf, status)
+        call init_for_accuracy(integ, model, qf, pf, real(tolerance, wp), real(span, wp), &
+                               plan, status)
+        call check(error, all(orders == [plan%order_m, plan%order_n, plan%gauss_points]), &
+            "orders " // int_str(int(orders(1))) // " not the plan's")
+        call check(error, status%ok() .and. h == plan%h .and. steps == plan%steps, &
+            "the C plan (h " // real_str(real(h, wp)) // ", " // int_str(int(steps)) // &
+            " steps) is not the Fortran one (h " // real_str(plan%h) // ", " // &
+            int_str(plan%steps) // ")")
+        call check_status_code(error, int(holosym_integrate(handle, c_loc(q), c_loc(p), h, &
+            steps, c_null_funptr, c_null_ptr, c_loc(done))), HOLOSYM_SUCCESS, &
+            message_of(handle))
+        call integ%integrate(model, qf, pf, plan%h, plan%steps, status=status)
+        call check(error, all(real(q, wp) == qf) .and. all(real(p, wp) == pf), &
+            "the C run differs from the Fortran one")
+        tolerance = 2
+        call check_status_code(error, int(holosym_plan_accuracy(handle, c_loc(q), c_loc(p), &
+            c_loc(tolerance), c_loc(span), c_loc(h), c_loc(steps), c_null_ptr)), &
+            HOLOSYM_INVALID_ARGUMENT, "tolerance 2")
+        call check(error, index(message_of(handle), "holosym_plan_accuracy: tolerance") > 0, &
+            "message: " // message_of(handle))
+        call check_status_code(error, int(holosym_plan_accuracy(handle, c_loc(q), c_loc(p), &
+            c_null_ptr, c_loc(span), c_loc(h), c_loc(steps), c_null_ptr)), &
+            HOLOSYM_INVALID_ARGUMENT, "NULL tolerance")
+        call check(error, h == plan%h .and. steps == plan%steps, "h or steps changed by a " // &
+            "failed call")
+        call holosym_destroy(handle)
+    end subroutine plan_accuracy
 
     !> The _p calls (reals through pointers) give the bits of the calls with values on the
     !! four-bar model; holosym_energy and holosym_constraint give H and phi of the Fortran

@@ -382,3 +382,23 @@ def test_status_codes_follow_the_header():
     ours = {name: getattr(holosym, name) for name in dir(holosym)
             if name.isupper() and isinstance(getattr(holosym, name), int)}
     assert ours == defined
+
+
+def test_plan_accuracy_reaches_the_request():
+    # holosym chooses (M, N, G) and h for 1e-20 at T = 10; the run reaches T and the
+    # error against 1280 steps of order 16 is within 10 times the request
+    model = holosym.Model.builtin("spherical_pendulum")
+    planned = holosym.Integrator(model)
+    steps = planned.plan_accuracy(Decimal("1e-20"), 10)
+    assert planned.orders == (8, 7, 9)
+    assert planned.integrate(steps) == steps
+    assert abs(float(planned.t) - 10) < 1e-12
+    reference = holosym.Integrator(model, M=8, h=Fraction(10, 1280))
+    assert reference.integrate(1280) == 1280
+    error = max(abs(a - b) for a, b in zip(planned.state[0] + planned.state[1],
+                                           reference.state[0] + reference.state[1]))
+    assert error <= Decimal("1e-19")
+    with pytest.raises(holosym.Error) as failure:
+        planned.plan_accuracy(2, 10)
+    assert failure.value.code == holosym.INVALID_ARGUMENT
+    assert "tolerance" in str(failure.value)

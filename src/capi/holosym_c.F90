@@ -33,6 +33,7 @@ module holosym_c
     use holosym_problem, only: constrained_hamiltonian, clear_refusal, check_refusal
     use holosym_formula_model, only: formula_model, model_from_text
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
+    use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
     use holosym_projection, only: project_to_manifold
     use holosym_c_registry, only: register_handle, forget_handle, is_live_handle
     implicit none
@@ -49,6 +50,8 @@ module holosym_c
     ! Python's ctypes), and H and phi at a state.
     public :: holosym_step_p, holosym_integrate_p, holosym_dense_output_p, &
         holosym_model_set_parameter_p, holosym_energy, holosym_constraint
+    ! The trade of speed for accuracy as one argument.
+    public :: holosym_plan_accuracy
 
     !> What `holosym_model_name` names (HOLOSYM_NAME_* in the header).
     integer(c_int), parameter, public :: name_parameter_c = 0, name_coordinate_c = 1, &
@@ -1084,6 +1087,66 @@ contains
         end if
         holosym_energy = finish(handle, status)
     end function holosym_energy
+
+    !> int holosym_plan_accuracy(holosym_integrator *integrator, const holosym_real *q,
+    !! const holosym_real *p, const holosym_real *tolerance, const holosym_real *T,
+    !! holosym_real *h, int *steps, int *orders): set the integrator up for an error
+    !! *tolerance at *T from (q, p) (`init_for_accuracy`: the scheme, the step and the
+    !! Newton tolerance from a pilot); then `holosym_integrate(integrator, q, p, *h,
+    !! *steps, ...)`; orders[0..2] = (M, N, G) chosen (orders may be NULL). Codes: those of
+    !! `init_for_accuracy` (HOLOSYM_INVALID_ARGUMENT also for a NULL pointer); on failure
+    !! the integrator keeps its set-up and the outputs are unchanged.
+    integer(c_int) function holosym_plan_accuracy(ptr, q_ptr, p_ptr, tolerance_ptr, t_ptr, &
+                                                  h_ptr, steps_ptr, orders_ptr) &
+        bind(C, name="holosym_plan_accuracy")
+        type(c_ptr), value :: ptr            !! the handle
+        type(c_ptr), value :: q_ptr, p_ptr   !! const holosym_real *: the start (n each)
+        type(c_ptr), value :: tolerance_ptr  !! const holosym_real *: the error wanted at T
+        type(c_ptr), value :: t_ptr          !! const holosym_real *: T
+        type(c_ptr), value :: h_ptr          !! holosym_real *: the step chosen
+        type(c_ptr), value :: steps_ptr      !! int *: the steps to T
+        type(c_ptr), value :: orders_ptr     !! int *: (M, N, G) chosen, or NULL
+        type(c_handle), pointer :: handle
+        type(constrained_integrator) :: trial
+        type(accuracy_plan_t) :: plan
+        type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:), tolerance, span, h
+        integer(c_int), pointer :: steps, orders(:)
+        handle => ready_handle(ptr, "holosym_plan_accuracy", holosym_plan_accuracy)
+        if (.not. associated(handle)) return
+        if (.not. arrays_given(handle, "holosym_plan_accuracy", q_ptr, p_ptr, &
+                               holosym_plan_accuracy)) return
+        if (.not. (c_associated(tolerance_ptr) .and. c_associated(t_ptr) .and. &
+                   c_associated(h_ptr) .and. c_associated(steps_ptr))) then
+            holosym_plan_accuracy = refuse(handle, HOLOSYM_INVALID_ARGUMENT, &
+                "holosym_plan_accuracy: tolerance, T, h or steps is NULL")
+            return
+        end if
+        q => reals_at(q_ptr, handle%system%n)
+        p => reals_at(p_ptr, handle%system%n)
+        call c_f_pointer(tolerance_ptr, tolerance)
+        call c_f_pointer(t_ptr, span)
+        handle%record%code = 0
+        ! Planned on a copy: the handle's integrator changes only when the plan succeeds.
+        trial = handle%integrator
+        call init_for_accuracy(trial, handle%system, real(q, wp), real(p, wp), &
+                               real(tolerance, wp), real(span, wp), plan, status)
+        if (status%ok()) then
+            handle%integrator = trial
+            handle%orders = int([plan%order_m, plan%order_n, plan%gauss_points], c_int)
+            call c_f_pointer(h_ptr, h)
+            call c_f_pointer(steps_ptr, steps)
+            h = real(plan%h, c_real)
+            steps = int(plan%steps, c_int)
+            if (c_associated(orders_ptr)) then
+                call c_f_pointer(orders_ptr, orders, [3])
+                orders = handle%orders
+            end if
+        else
+            status%message = "holosym_plan_accuracy: " // status%message
+        end if
+        holosym_plan_accuracy = finish(handle, status)
+    end function holosym_plan_accuracy
 
     !> int holosym_constraint(holosym_integrator *integrator, const holosym_real *q,
     !! holosym_real *phi): the constraint values phi(q) (m of them; phi may be NULL when

@@ -489,6 +489,26 @@ class Integrator:
         _check(self._lib.project(self._handle.pointer, self._q.address, self._p.address),
                self._handle)
 
+    def plan_accuracy(self, tolerance, T):
+        """Set the integrator up for an error `tolerance` (max |error| of q and p) at time
+        T from the state: holosym chooses (M, N, G), h and the Newton tolerance from a
+        pilot (docs/accuracy.md). The chosen h becomes the integrator's h and `orders`
+        the chosen (M, N, G); returns the number of steps to T, so that
+        `integrator.integrate(integrator.plan_accuracy(1e-20, 10))` reaches T. Error on a
+        bad request, the set-up unchanged."""
+        lib = self._lib
+        tolerance_buffer = lib.reals(1, _real_bytes(tolerance, "tolerance", lib))
+        span_buffer = lib.reals(1, _real_bytes(T, "T", lib))
+        h_buffer = lib.reals(1)
+        steps = _clib.ctypes.c_int(0)
+        orders = (_clib.ctypes.c_int * 3)()
+        _check(lib.plan_accuracy(self._handle.pointer, self._q.address, self._p.address,
+                                 tolerance_buffer.address, span_buffer.address,
+                                 h_buffer.address, steps, orders), self._handle)
+        self._h = h_buffer.get_bytes()
+        self.orders = tuple(orders)
+        return steps.value
+
     def energy(self, exact=False):
         """H at the state (float, or Decimal with exact=True)."""
         raw = self._energy_bytes(self._q, self._p)

@@ -83,6 +83,8 @@ class Library:
         self.project = declare("holosym_project", _int, _p, _p, _p)
         self.energy = declare("holosym_energy", _int, _p, _p, _p, _p)
         self.constraint = declare("holosym_constraint", _int, _p, _p, _p)
+        self.plan_accuracy = declare("holosym_plan_accuracy", _int, _p, _p, _p, _p, _p,
+                                     _p, _int_p, _p)
 
     def _declare(self, name, restype, *argtypes):
         function = getattr(self.lib, name)
