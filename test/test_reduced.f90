@@ -10,6 +10,8 @@ module test_reduced
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
     use holosym_model_chain, only: pendulum_chain
     use holosym_reduced_step, only: reduced_step_t
+    use holosym_reduced_scheme, only: reduced_scheme_t, reduced_equations
+    use holosym_newton, only: newton_solve, newton_settings_t, newton_report_t
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
@@ -75,7 +77,8 @@ contains
             new_test("failure_keeps_state", failure_keeps_state), &
             new_test("nearly_dependent_constraints_fall_back", nearly_dependent), &
             new_test("options_it_does_not_honour_refused", options_refused), &
-            new_test("newton_settings_act_on_it", newton_settings_act) &
+            new_test("newton_settings_act_on_it", newton_settings_act), &
+            new_test("newton_solve_solves_the_reduced_scheme", newton_solve_reduced) &
         ]
     end function reduced_tests
 
@@ -456,6 +459,77 @@ contains
             int_str(int(factorizations(3))) // " factorizations, default " // &
             int_str(int(factorizations(1))))
     end subroutine newton_settings_act
+
+    !> The reduced scheme implements Newton's interface (`nonlinear_system`, through
+    !! `reduced_equations`): `newton_solve`
+    !! (full Newton, working-precision LU of its Newton matrix) solves one step of it to
+    !! the state the integrator's reduced step reaches, within round-off, on the spherical
+    !! pendulum (dense second derivatives) and a chain of 8 links (banded, coloured
+    !! differences); with and without the real64 pre-solve (`residual_lowered`).
+    subroutine newton_solve_reduced(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum) :: pendulum
+        type(pendulum_chain) :: chain
+        real(wp) :: theta(8)
+        integer :: mode
+        pendulum = spherical_pendulum()
+        chain = pendulum_chain(8)
+        do mode = 1, 2
+            call compare(pendulum, mode == 2)
+            call compare(chain, mode == 2)
+            if (allocated(error)) return
+        end do
+    contains
+        subroutine compare(sys, presolve)
+            class(constrained_hamiltonian), intent(in), target :: sys
+            logical, intent(in) :: presolve
+            type(reduced_scheme_t), target :: scheme
+            type(reduced_equations) :: equations
+            type(constrained_integrator) :: integ
+            type(newton_settings_t) :: settings
+            type(newton_report_t) :: report
+            type(holosym_status_t) :: status
+            type(step_info_t) :: info
+            real(wp), allocatable :: q(:), p(:), q1(:), p1(:), x(:), f(:), dq(:), dpb(:)
+            real(wp) :: h, difference
+            allocate (q(sys%n), p(sys%n), dq(sys%n), dpb(sys%n))
+            select type (sys)
+            type is (pendulum_chain)
+                theta = 0.5_wp
+                call sys%state_from_angles(theta, 0 * theta, q, p)
+                h = 0.01_wp
+            type is (spherical_pendulum)
+                call sys%initial_state(q, p)
+                h = 0.125_wp
+            end select
+            q1 = q
+            p1 = p
+            call integ%init(sys, 4, 3, 5, status)
+            call integ%step(sys, q1, p1, h, info, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "integrator step")
+            call scheme%init(sys, 4, 3, 5, status)
+            call scheme%set_step(sys, q, p, h, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "scheme set-up")
+            if (allocated(error)) return
+            allocate (x(scheme%nx), f(scheme%nx))
+            x = 0
+            settings%presolve = presolve
+            equations%scheme => scheme
+            call newton_solve(equations, x, settings, max(maxval(abs(q)), maxval(abs(p))), &
+                              report, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "newton_solve: " // &
+                status%message)
+            if (allocated(error)) return
+            ! The step's results from an evaluation at the solution.
+            call scheme%residual(x, f, status)
+            call scheme%increments(dq, dpb, .false.)
+            difference = max(maxval(abs(q + dq - q1)), maxval(abs(p + dpb - p1)))
+            call check(error, difference <= agreement, "newton_solve on the reduced " // &
+                "scheme and the reduced step differ by " // real_str(difference) // &
+                " (n = " // int_str(sys%n) // ", presolve " // merge("T", "F", presolve) // &
+                ", " // int_str(report%iterations) // " iterations)")
+        end subroutine compare
+    end subroutine newton_solve_reduced
 
     !> A NaN gradient in the third step: code 4, the state of step 2 kept.
     subroutine failure_keeps_state(error)

@@ -15,12 +15,18 @@
 !! q_b - q_a = z_M and p_b - p_a = -h sum_g w_g grad U(q~(tau_g)) - sum_i wl_i Phi_i^T mu_i.
 !! Their order in the unknown vector is the layout's (`holosym_reduced_layout`).
 !!
-!! The residual is evaluated in working precision or, for the first Newton iterations and
-!! the difference Jacobian, with its sums in real64 (`residual_lowered`); the user's
-!! procedures always see working-precision arguments. The Newton matrix is formed by
-!! differences of the real64 residual, one residual per group of columns that share no
-!! row (`holosym_reduced_layout`), so no second derivatives are needed and a banded
-!! system costs a number of residuals independent of its size.
+!! The residual is evaluated in working precision or, for the first Newton iterations,
+!! with its sums in real64 (`residual_dp`); the user's procedures always see
+!! working-precision arguments. The Newton matrix (`form_jacobian`, real64, in the
+!! layout's compressed-row pattern) is assembled from the second derivatives of U and phi
+!! at the last evaluation's points: the system's Hessians, or differences of its
+!! gradients along the colours of the coupling graph when a sparsity is declared.
+!!
+!! `reduced_equations` presents the scheme as a `nonlinear_system` (the interface of
+!! `newton_solve`, which the general scheme implements too): `residual`, `jacobian` (the
+!! Newton matrix as a dense working-precision matrix) and `residual_lowered` (the real64
+!! sums). The reduced step (`holosym_reduced_step`) iterates the scheme with banded real64
+!! factors; `newton_solve` can solve it as it solves the general scheme.
 module holosym_reduced_scheme
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp
@@ -31,7 +37,7 @@ module holosym_reduced_scheme
     use holosym_lagrange, only: lagrange_values, lagrange_matrices
     use holosym_linalg, only: lu_factor, lu_solve
     use holosym_problem, only: constrained_hamiltonian, refusal_pending, check_refusal
-    use holosym_newton, only: all_finite
+    use holosym_newton, only: all_finite, nonlinear_system
     use holosym_reduced_layout, only: reduced_layout_t
     use holosym_reduced_kernels_wp, only: tables_wp => reduced_tables, &
         evaluation_wp => reduced_evaluation, allocate_evaluation_wp => allocate_evaluation, &
@@ -100,8 +106,8 @@ module holosym_reduced_scheme
         procedure :: init => reduced_init
         procedure :: set_step => reduced_set_step
         procedure :: residual => reduced_residual
-        procedure :: residual_lowered => reduced_residual_lowered
-        procedure :: jacobian => reduced_jacobian
+        procedure :: residual_dp => reduced_residual_dp
+        procedure :: form_jacobian => reduced_form_jacobian
         procedure :: increments => reduced_increments
         procedure :: linear_dp_change => reduced_linear_dp_change
         procedure :: dense => reduced_dense
@@ -109,6 +115,18 @@ module holosym_reduced_scheme
         procedure :: multipliers => reduced_multipliers
         procedure :: extrapolated_guess => reduced_extrapolated_guess
     end type reduced_scheme_t
+
+    !> The reduced scheme as a `nonlinear_system` (the interface of `newton_solve`, which
+    !! the general scheme implements too): point `scheme` at a set-up scheme; `residual`,
+    !! `jacobian` (the Newton matrix as a dense working-precision matrix) and
+    !! `residual_lowered` (the real64 sums) are the scheme's.
+    type, extends(nonlinear_system), public :: reduced_equations
+        type(reduced_scheme_t), pointer :: scheme => null() !! the scheme, bound to a step
+    contains
+        procedure :: residual => equations_residual
+        procedure :: jacobian => equations_jacobian
+        procedure :: residual_lowered => equations_residual_lowered
+    end type reduced_equations
 
 contains
 
@@ -411,7 +429,7 @@ contains
     !> The residual with the sums in real64 at the real64 unknowns x; the gradient of U from
     !! the system's `dh_dq_double`, its other procedures with working-precision arguments;
     !! also p_b - p_a to real64 accuracy in low%dp.
-    subroutine reduced_residual_lowered(self, x, f, status)
+    subroutine reduced_residual_dp(self, x, f, status)
         class(reduced_scheme_t), intent(inout) :: self
         real(dp), intent(in) :: x(:)   !! unknowns (layout order), real64
         real(dp), intent(out) :: f(:)  !! residual (layout order), real64
@@ -448,15 +466,58 @@ contains
             "the step's equations overflow in real64 (non-finite residual from finite " // &
             "values of the system)")
         call check_refusal(status, "")
-    end subroutine reduced_residual_lowered
+    end subroutine reduced_residual_dp
+
+    !> `residual` of the scheme (for `newton_solve`).
+    subroutine equations_residual(self, x, f, status)
+        class(reduced_equations), intent(inout) :: self
+        real(wp), intent(in) :: x(:)   !! unknowns (layout order)
+        real(wp), intent(out) :: f(:)  !! residual (layout order)
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        call self%scheme%residual(x, f, status)
+    end subroutine equations_residual
+
+    !> `residual_dp` for `newton_solve`'s pre-solve: the residual with its sums in real64,
+    !! at x rounded to real64, in working-precision arrays.
+    subroutine equations_residual_lowered(self, x, f, status)
+        class(reduced_equations), intent(inout) :: self
+        real(wp), intent(in) :: x(:)   !! unknowns (layout order)
+        real(wp), intent(out) :: f(:)  !! residual (layout order)
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        real(dp) :: f_low(size(f))
+        call self%scheme%residual_dp(real(x, dp), f_low, status)
+        f = real(f_low, wp)
+    end subroutine equations_residual_lowered
+
+    !> The Newton matrix at x as a dense matrix (for `newton_solve`): the residual at x,
+    !! then `form_jacobian` from that evaluation, its compressed rows expanded.
+    subroutine equations_jacobian(self, x, jac, status)
+        class(reduced_equations), intent(inout) :: self
+        real(wp), intent(in) :: x(:)        !! unknowns (layout order)
+        real(wp), intent(out) :: jac(:, :)  !! dF/dx
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        real(wp) :: f(size(x))
+        integer :: r, e
+        call self%scheme%residual(x, f, status)
+        if (status%ok()) call self%scheme%form_jacobian(.false., status)
+        if (.not. status%ok()) return
+        jac = 0
+        associate (lay => self%scheme%layout)
+            do r = 1, self%scheme%nx
+                do e = lay%jac_start(r), lay%jac_start(r + 1) - 1
+                    jac(r, lay%jac_col(e)) = real(self%scheme%jac_values(e), wp)
+                end do
+            end do
+        end associate
+    end subroutine equations_jacobian
 
     !> The Newton matrix and d(p_b - p_a)/dx (real64, in the layout's patterns:
-    !! jac_values, dp_values) at the point of the last evaluation, `residual_lowered`
+    !! jac_values, dp_values) at the point of the last evaluation, `residual_dp`
     !! (`lowered` true) or `residual`, assembled from the second derivatives of U and phi at
     !! its Gauss points and nodes.
-    subroutine reduced_jacobian(self, lowered, status)
+    subroutine reduced_form_jacobian(self, lowered, status)
         class(reduced_scheme_t), intent(inout) :: self
-        logical, intent(in) :: lowered !! the last evaluation was `residual_lowered`
+        logical, intent(in) :: lowered !! the last evaluation was `residual_dp`
         type(holosym_status_t), intent(out) :: status !! non-finite user values
         self%jacobians = self%jacobians + 1
         if (.not. lowered) then
@@ -472,7 +533,7 @@ contains
         call check_refusal(status, "")
         if (.not. status%ok()) return
         call assemble(self)
-    end subroutine reduced_jacobian
+    end subroutine reduced_form_jacobian
 
     !> Second derivatives at the real64 evaluation's points, in real64: the Hessian of U at
     !! each Gauss point and L_i = sum_l mu_il phi_l''(q_i) at nodes 1..M on the coupling
@@ -851,7 +912,7 @@ contains
 
     !> Step results from the last evaluation: q_b - q_a = z_M and p_b - p_a, from the
     !! working-precision evaluation (`residual`) or, with `lowered`, the real64 one
-    !! (`residual_lowered`, real64 accuracy).
+    !! (`residual_dp`, real64 accuracy).
     subroutine reduced_increments(self, dq, dpb, lowered)
         class(reduced_scheme_t), intent(in) :: self
         real(wp), intent(out) :: dq(:)   !! q_b - q_a

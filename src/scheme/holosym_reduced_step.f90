@@ -290,7 +290,7 @@ contains
                 return
             end if
             self%x_low = real(self%x, dp)
-            call self%scheme%residual_lowered(self%x_low, self%f_low, status)
+            call self%scheme%residual_dp(self%x_low, self%f_low, status)
         else
             call self%scheme%residual(self%x, self%f, status)
             if (.not. status%ok()) return
@@ -388,7 +388,7 @@ contains
         type(reduced_report_t), intent(inout) :: report
         type(holosym_status_t), intent(out) :: status
         integer :: info
-        call self%scheme%jacobian(lowered, status)
+        call self%scheme%form_jacobian(lowered, status)
         if (.not. status%ok()) return
         call self%factors%factor(self%scheme%layout%jac_start, self%scheme%layout%jac_col, &
                                  self%scheme%jac_values, info, &
