@@ -25,8 +25,7 @@
 module holosym_accuracy
     use holosym_kinds, only: wp, wp_is_double
     use holosym_status_codes, only: holosym_status_t, set_status, real_str, int_str, &
-        is_finite, is_system_fault, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
-        HOLOSYM_SIZE_MISMATCH
+        is_finite, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator
     implicit none
@@ -219,11 +218,9 @@ contains
                                end(:, k), status)
                 if (.not. status%ok()) exit
             end do
-            if (.not. status%ok()) then
-                ! NaN or a refused point is the system's answer, not a step too large.
-                if (is_system_fault(status%code)) return
-                cycle
-            end if
+            ! (Also a NaN of the system's procedures: at a step far too large the iterates
+            ! leave any domain; a fault at every step size ends the search with its code.)
+            if (.not. status%ok()) cycle
             d1 = maxval(abs(end(:, 1) - end(:, 2)))
             d2 = maxval(abs(end(:, 2) - end(:, 3)))
             if (d2 <= floor) then
@@ -281,7 +278,6 @@ contains
             if (status%ok()) call pilot_run(integ, sys, q, p, plan, covered, 2 * steps, &
                                             end(:, 2), status)
             if (status%ok()) exit
-            if (is_system_fault(status%code)) return
             coarse = coarse / 2
         end do
         if (.not. status%ok()) return
