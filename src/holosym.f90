@@ -21,6 +21,9 @@
 !!   derivatives (central differences).
 !! - [[constrained_integrator]]: `init`, `step`, `integrate`, `dense_output`, the settings
 !!   and the work counters `stats` ([[integrator_stats_t]]).
+!! - [[init_for_accuracy]], [[accuracy_plan_t]], [[accuracy_floor]]: the integrator set up
+!!   for a requested error at time T ((M, N, G), h and the Newton tolerance from a pilot;
+!!   docs/accuracy.md).
 !! - [[step_info_t]], [[step_observer]]: diagnostics of one step; the observer that
 !!   `integrate` calls after each step, whose component `dense` ([[step_dense_output]])
 !!   evaluates the step just taken at any time inside it.
