@@ -21,6 +21,7 @@ contains
     module logical function settings_valid(self, message)
         class(constrained_integrator), intent(in) :: self
         character(len=:), allocatable, intent(out) :: message
+        integer :: option
         if (newton_settings_valid(self%newton, message)) then
             ! Finiteness first: a NaN in an ordered comparison raises 'invalid'.
             if (.not. is_finite(self%manifold_tolerance)) then
@@ -56,56 +57,69 @@ contains
             end select
         end if
         if (len(message) == 0 .and. self%path%main == STEP_REDUCED) then
-            if (.not. reduced_honours(self)) message = reduced_refusal(self)
+            option = refused_option(self)
+            if (option > 0) message = reduced_refusal(self, option)
         end if
         settings_valid = len(message) == 0
     end function settings_valid
 
-    !> Whether the reduced step honours every option (the test of `reduced_refusal`,
-    !! without building a message: it runs before every step).
-    pure logical function reduced_honours(self)
+    !> The first option the reduced step does not honour (1 simplified, 2 presolve, 3
+    !! linear_solver, 4 jacobian, 5 linear_increments, 6 hessians 'user', 7 hessians
+    !! 'differences'), or 0 when it honours them all (the general step honours every value:
+    !! `structured = .false.` before `init`). The reduced step is simplified Newton with
+    !! real64 factors of its assembled Newton matrix, a real64 first phase in real128 and
+    !! first-order step results; its second derivatives are the system's `hessian`
+    !! bindings when no sparsity is declared, else differences along the colours of the
+    !! coupling graph. Decided without building a message: it runs before every step.
+    pure integer function refused_option(self) result(option)
         class(constrained_integrator), intent(in) :: self
-        reduced_honours = self%newton%simplified .and. &
-            (self%newton%presolve .or. wp_is_double) .and. &
-            self%linear_solver /= "real128" .and. self%linear_solver /= "native" .and. &
-            self%jacobian == "assembled" .and. self%linear_increments .and. &
-            .not. (self%hessians == "user" .and. self%reduced%scheme%layout%sparse) .and. &
-            .not. (self%hessians == "differences" .and. .not. &
-                   self%reduced%scheme%layout%sparse)
-    end function reduced_honours
+        associate (sparse => self%reduced%scheme%layout%sparse)
+            if (.not. self%newton%simplified) then
+                option = 1
+            else if (.not. self%newton%presolve .and. .not. wp_is_double) then
+                option = 2
+            else if (self%linear_solver == "real128" .or. self%linear_solver == "native") then
+                option = 3
+            else if (self%jacobian /= "assembled") then
+                option = 4
+            else if (.not. self%linear_increments) then
+                option = 5
+            else if (self%hessians == "user" .and. sparse) then
+                option = 6
+            else if (self%hessians == "differences" .and. .not. sparse) then
+                option = 7
+            else
+                option = 0
+            end if
+        end associate
+    end function refused_option
 
-    !> "" when every option is one the reduced step honours, else the refusal naming the
-    !! first that it does not (the general step honours them all: `structured = .false.`
-    !! before `init`). The reduced step is simplified Newton with real64 factors of its
-    !! assembled Newton matrix, a real64 first phase in real128 and first-order step
-    !! results; its second derivatives are the system's `hessian` bindings when no sparsity
-    !! is declared, else differences along the colours of the coupling graph.
-    function reduced_refusal(self) result(message)
+    !> The refusal of option `option` (of `refused_option`), naming it.
+    function reduced_refusal(self, option) result(message)
         class(constrained_integrator), intent(in) :: self
+        integer, intent(in) :: option
         character(len=:), allocatable :: message
-        character(len=*), parameter :: general = "; set structured = .false. before " // &
-            "init for the general step, which honours it"
-        message = ""
-        if (.not. self%newton%simplified) then
+        select case (option)
+        case (1)
             message = "newton%simplified = .false."
-        else if (.not. self%newton%presolve .and. .not. wp_is_double) then
+        case (2)
             message = "newton%presolve = .false."
-        else if (self%linear_solver == "real128" .or. self%linear_solver == "native") then
+        case (3)
             message = "linear_solver = '" // trim(self%linear_solver) // "'"
-        else if (self%jacobian /= "assembled") then
+        case (4)
             message = "jacobian = '" // trim(self%jacobian) // "'"
-        else if (.not. self%linear_increments) then
+        case (5)
             message = "linear_increments = .false."
-        else if (self%hessians == "user" .and. self%reduced%scheme%layout%sparse) then
+        case (6)
             message = "hessians = 'user' (with a declared sparsity it differences the " // &
                 "gradients along the colours of the coupling graph)"
-        else if (self%hessians == "differences" .and. .not. &
-                 self%reduced%scheme%layout%sparse) then
+        case default
             message = "hessians = 'differences' (without a declared sparsity it calls " // &
                 "the system's hessian bindings)"
-        end if
-        if (len(message) > 0) message = "the reduced step (structured = .true., the " // &
-            "path of this system) does not honour " // message // general
+        end select
+        message = "the reduced step (structured = .true., the path of this system) does " // &
+            "not honour " // message // "; set structured = .false. before init for the " // &
+            "general step, which honours it"
     end function reduced_refusal
 
     !> Largest scaled constraint residual of an accepted end state: `end_state_tolerance`,
