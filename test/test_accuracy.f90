@@ -168,7 +168,7 @@ contains
 
     !> A tolerance outside [accuracy_floor, 1) or not finite, T <= 0 or not finite, a plan
     !! of more steps than `integrate` counts, and states of the wrong size are refused,
-    !! naming the argument, with q and p unchanged.
+    !! naming the argument, with q, p and the integrator unchanged.
     subroutine bad_requests(error)
         type(test_error_t), allocatable, intent(out) :: error
         class(constrained_hamiltonian), allocatable :: sys
@@ -177,7 +177,7 @@ contains
         type(holosym_status_t) :: status
         real(wp), allocatable :: q(:), p(:), q0(:), p0(:)
         real(wp) :: nan, bad_tolerances(5), bad_spans(4)
-        integer :: k
+        integer :: k, m_kept, n_kept, g_kept
         call builtin_system("pendulum", sys, q, p)
         q0 = q
         p0 = p
@@ -196,11 +196,17 @@ contains
             call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, &
                 "T " // real_str(bad_spans(k)))
         end do
-        ! A plan beyond the step counter: refused after the pilot, saying how many steps.
+        ! A plan beyond the step counter: refused after the pilot, saying how many steps;
+        ! the caller's integrator keeps its set-up and settings.
+        integ%newton%tolerance = 1.0e-20_wp
+        call integ%init(sys, 2, 1, 3, status)
         call init_for_accuracy(integ, sys, q, p, 100 * accuracy_floor(1.0_wp), 1.0e12_wp, &
                                plan, status)
         call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "T = 1e12")
         call check(error, index(status%message, "steps") > 0, "message: " // status%message)
+        call integ%orders(m_kept, n_kept, g_kept)
+        call check(error, integ%newton%tolerance == 1.0e-20_wp .and. m_kept == 2 .and. &
+            n_kept == 1 .and. g_kept == 3, "a failed plan changed the integrator")
         call init_for_accuracy(integ, sys, q(1:2), p, 1.0e-10_wp, span, plan, status)
         call check_status_code(error, status%code, HOLOSYM_SIZE_MISMATCH, "size of q")
         call check(error, all(q == q0) .and. all(p == p0), "state changed by refusals")

@@ -1107,7 +1107,6 @@ contains
         type(c_ptr), value :: steps_ptr      !! int *: the steps to T
         type(c_ptr), value :: orders_ptr     !! int *: (M, N, G) chosen, or NULL
         type(c_handle), pointer :: handle
-        type(constrained_integrator) :: trial
         type(accuracy_plan_t) :: plan
         type(holosym_status_t) :: status
         real(c_real), pointer :: q(:), p(:), tolerance, span, h
@@ -1127,12 +1126,10 @@ contains
         call c_f_pointer(tolerance_ptr, tolerance)
         call c_f_pointer(t_ptr, span)
         handle%record%code = 0
-        ! Planned on a copy: the handle's integrator changes only when the plan succeeds.
-        trial = handle%integrator
-        call init_for_accuracy(trial, handle%system, real(q, wp), real(p, wp), &
+        ! The handle's integrator changes only when the plan succeeds.
+        call init_for_accuracy(handle%integrator, handle%system, real(q, wp), real(p, wp), &
                                real(tolerance, wp), real(span, wp), plan, status)
         if (status%ok()) then
-            handle%integrator = trial
             handle%orders = int([plan%order_m, plan%order_n, plan%gauss_points], c_int)
             call c_f_pointer(h_ptr, h)
             call c_f_pointer(steps_ptr, steps)

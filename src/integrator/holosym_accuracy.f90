@@ -93,8 +93,8 @@ contains
     !! `call integ%integrate(sys, q, p, plan%h, plan%steps, ...)`. Codes:
     !! HOLOSYM_INVALID_ARGUMENT (tolerance not in [accuracy_floor, 1), T not > 0 and
     !! finite), HOLOSYM_SIZE_MISMATCH, or the failure of a pilot run (the code of its step;
-    !! the message says which pilot step). On failure `integ` is not initialised for the
-    !! plan and `plan` holds what the pilot found.
+    !! the message says which pilot step). On failure `integ` is unchanged and `plan` holds
+    !! what the pilot found.
     subroutine init_for_accuracy(integ, sys, q, p, tolerance, T, plan, status)
         type(constrained_integrator), intent(inout) :: integ !! set up for the plan
         class(constrained_hamiltonian), intent(in), target :: sys !! the system
@@ -103,8 +103,9 @@ contains
         real(wp), intent(in) :: T            !! final time, > 0
         type(accuracy_plan_t), intent(out) :: plan !! the choice and its estimate
         type(holosym_status_t), intent(out), optional :: status !! outcome
+        type(constrained_integrator) :: trial
         type(holosym_status_t) :: local
-        real(wp) :: scale, error_pilot, error_full, h_full, h
+        real(wp) :: scale, error_full, h_full, h
 
         scale = 0
         if (size(q) == sys%n .and. size(p) == sys%n .and. sys%n > 0) &
@@ -115,12 +116,14 @@ contains
         end if
         call choose_order(tolerance, plan)
         plan%pilot_span = pilot_fraction * T
-        ! One set-up for every pilot run (each starts afresh from (q, p)); the system is
-        ! checked (when the integrator checks systems) by the first run only.
-        integ%newton%tolerance = 8 * epsilon(1.0_wp)
-        call integ%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
-        if (local%ok()) call pilot(integ, sys, q, p, plan, scale, error_pilot, local)
-        if (local%ok()) call full_span(integ, sys, q, p, T, plan, scale, error_full, h_full, &
+        ! The pilot runs on a copy (the caller's integrator changes only with a plan), one
+        ! set-up for every run (each starts afresh from (q, p)); the system is checked
+        ! (when the integrator checks systems) by the first run only.
+        trial = integ
+        trial%newton%tolerance = 8 * epsilon(1.0_wp)
+        call trial%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
+        if (local%ok()) call pilot(trial, sys, q, p, plan, scale, local)
+        if (local%ok()) call full_span(trial, sys, q, p, T, plan, scale, error_full, h_full, &
                                        local)
         if (.not. local%ok()) then
             call set_status(status, local%code, local%message)
@@ -142,10 +145,17 @@ contains
         plan%estimate = error_full * (plan%h / h_full)**(2 * plan%order_m)
         plan%newton_tolerance = max(8 * epsilon(1.0_wp), min(1.0e-3_wp, &
             tolerance / (newton_share * plan%steps * max(scale, 1.0_wp))))
-        integ%newton%tolerance = plan%newton_tolerance
-        call integ%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
+        trial%newton%tolerance = plan%newton_tolerance
+        call trial%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
+        if (local%ok()) integ = trial
         call set_status(status, local%code, local%message)
     end subroutine init_for_accuracy
+
+    !> Pilot differences at or below this are round-off of a state of size `scale`.
+    pure real(wp) function roundoff_floor(scale)
+        real(wp), intent(in) :: scale !! max(|q|, |p|) of the start state
+        roundoff_floor = roundoff_epsilons * epsilon(1.0_wp) * max(scale, 1.0_wp)
+    end function roundoff_floor
 
     !> Whether the request is one `init_for_accuracy` can plan; else why not.
     logical function request_valid(sys, q, p, tolerance, T, scale, status) result(valid)
@@ -186,24 +196,21 @@ contains
         plan%gauss_points = plan%order_m + 1
     end subroutine choose_order
 
-    !> The pilot: runs to T_pilot with steps h_p, h_p/2, h_p/4 (h_p halved until the
-    !! differences are asymptotic); the estimated error of the run with step pilot_h.
-    subroutine pilot(integ, sys, q, p, plan, scale, error, status)
+    !> The pilot's search for the asymptotic step: runs with steps h_p, h_p/2, h_p/4 from
+    !! the start (h_p halved until their differences shrink as h^(2M), or the finest run is
+    !! exact to round-off); the finest step in `plan%pilot_h`.
+    subroutine pilot(integ, sys, q, p, plan, scale, status)
         type(constrained_integrator), intent(inout) :: integ
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), scale
         type(accuracy_plan_t), intent(inout) :: plan
-        real(wp), intent(out) :: error
         type(holosym_status_t), intent(out) :: status
         real(wp), allocatable :: end(:, :)
-        real(wp) :: d1, d2, floor, ideal, h_coarse, pilot_span_max
+        real(wp) :: d1, d2, h_coarse, pilot_span_max
         integer :: halving, steps, k
 
         allocate (end(2 * sys%n, 3))
-        floor = roundoff_epsilons * epsilon(1.0_wp) * max(scale, 1.0_wp)
-        ideal = 2.0_wp**(2 * plan%order_m)
         pilot_span_max = plan%pilot_span
-        error = 0
         do halving = 0, pilot_halvings
             ! Coarse step h_c = T_pilot / 2^halving over min(2^halving, pilot_steps_max)
             ! of its steps: the span of the test shrinks with h_c once it has that many.
@@ -223,18 +230,13 @@ contains
             if (.not. status%ok()) cycle
             d1 = maxval(abs(end(:, 1) - end(:, 2)))
             d2 = maxval(abs(end(:, 2) - end(:, 3)))
-            if (d2 <= floor) then
-                ! The finest run is exact to round-off: the coarser difference bounds its
-                ! error from above (a plan from it errs on the accurate side).
+            if (d2 <= roundoff_floor(scale)) then
+                ! The finest run is exact to round-off: this step resolves the motion.
                 plan%observed_ratio = 0
-                error = max(d1 / (ideal - 1) / ideal, floor / ideal)
                 return
             end if
             plan%observed_ratio = d1 / d2
-            if (plan%observed_ratio >= asymptotic_share * ideal) then
-                error = d2 / (ideal - 1)
-                return
-            end if
+            if (plan%observed_ratio >= asymptotic_share * 2.0_wp**(2 * plan%order_m)) return
         end do
         if (.not. status%ok()) return
         call set_status(status, HOLOSYM_INVALID_ARGUMENT, "the pilot found no step size " // &
@@ -257,11 +259,9 @@ contains
         real(wp), intent(out) :: error, h_fine
         type(holosym_status_t), intent(out) :: status
         real(wp), allocatable :: end(:, :)
-        real(wp) :: d, floor, ideal, covered, coarse
+        real(wp) :: d, covered, coarse
         integer :: halving, steps
         allocate (end(2 * sys%n, 2))
-        floor = roundoff_epsilons * epsilon(1.0_wp) * max(scale, 1.0_wp)
-        ideal = 2.0_wp**(2 * plan%order_m)
         coarse = 2 * plan%pilot_h
         error = 0
         h_fine = 0
@@ -285,7 +285,8 @@ contains
         plan%covered_span = covered
         d = maxval(abs(end(:, 1) - end(:, 2)))
         ! At round-off the difference bounds the error from above.
-        error = max(d, floor) / (ideal - 1) * (T / covered)
+        error = max(d, roundoff_floor(scale)) / (2.0_wp**(2 * plan%order_m) - 1) * &
+            (T / covered)
     end subroutine full_span
 
     !> One pilot run: `steps` steps to `span` with `integ` as set up for the pilot (the
