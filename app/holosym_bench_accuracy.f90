@@ -14,6 +14,7 @@ module holosym_bench_accuracy
     use holosym_integrator, only: constrained_integrator
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
     use holosym_systems, only: make_system
+    use holosym_study_systems, only: reference_state
     use holosym_output, only: output_t, open_output
     implicit none
     private
@@ -106,10 +107,13 @@ contains
         real(wp), allocatable :: q0(:), p0(:), q(:), p(:), q_ref(:), p_ref(:)
         real(wp) :: difference, achieved
         real(real64) :: start, planned, done
-        integer :: k
+        integer :: k, steps
         call make_system(name, sys, q0, p0, status)
         if (.not. status%ok()) return
-        call reference(sys, q0, p0, span, q_ref, p_ref, difference, status)
+        ! 128 steps per time unit to T = 10 (real64: 64), 32 to T = 1000.
+        steps = nint(span) * merge(64, 128, wp_is_double)
+        if (span > short_span) steps = nint(span) * 32
+        call reference_state(sys, q0, p0, span, steps, q_ref, p_ref, difference, status)
         if (.not. status%ok()) return
         do k = 1, size(list)
             q = q0
@@ -146,35 +150,6 @@ contains
                 ": error " // real_str(achieved)
         end do
     end subroutine system_rows
-
-    !> The reference state at T = span and its difference from the run with half the
-    !! steps: 128 steps per time unit of (8, 7, 9) (real64: 64 of (6, 5, 7)) to T = 10, 32
-    !! per unit to T = 1000.
-    subroutine reference(sys, q0, p0, span, q_ref, p_ref, difference, status)
-        class(constrained_hamiltonian), intent(in) :: sys
-        real(wp), intent(in) :: q0(:), p0(:), span
-        real(wp), allocatable, intent(out) :: q_ref(:), p_ref(:)
-        real(wp), intent(out) :: difference
-        type(holosym_status_t), intent(out) :: status
-        type(constrained_integrator) :: integ
-        real(wp), allocatable :: q(:), p(:)
-        integer :: steps, order_m
-        steps = nint(span) * merge(64, 128, wp_is_double)
-        if (span > short_span) steps = nint(span) * 32
-        order_m = merge(6, 8, wp_is_double)
-        q_ref = q0
-        p_ref = p0
-        call integ%init(sys, order_m, order_m - 1, order_m + 1, status)
-        if (status%ok()) call integ%integrate(sys, q_ref, p_ref, span / steps, steps, &
-                                              status=status)
-        if (.not. status%ok()) return
-        q = q0
-        p = p0
-        call integ%init(sys, order_m, order_m - 1, order_m + 1, status)
-        if (status%ok()) call integ%integrate(sys, q, p, span / (steps / 2), steps / 2, &
-                                              status=status)
-        difference = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
-    end subroutine reference
 
 end module holosym_bench_accuracy
 

@@ -11,6 +11,7 @@ module test_accuracy
     use holosym_integrator, only: constrained_integrator
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy, accuracy_floor
     use holosym_test_systems, only: builtin_system
+    use holosym_study_systems, only: reference_state
     use holosym_test_commands, only: text_line_t, read_lines, command_result_t, run_holosym, &
         any_line_contains, scratch_path, reset_scratch
     use test_models, only: reference_values
@@ -56,25 +57,22 @@ contains
         character(len=*), parameter :: names(3) = [character(len=8) :: "pendulum", &
             "linkage", "planar"]
         class(constrained_hamiltonian), allocatable :: sys
-        real(wp), allocatable :: q(:), p(:), q_ref(:), p_ref(:), q_half(:), p_half(:)
+        type(holosym_status_t) :: status
+        real(wp), allocatable :: q(:), p(:), q_ref(:), p_ref(:)
+        real(wp) :: difference
         integer :: s, reference_steps
         ! real64: steps of 1/64 at order 12 (finer ones stall Newton at round-off).
         reference_steps = merge(640, 1280, wp_is_double)
         do s = 1, size(names)
             call builtin_system(trim(names(s)), sys, q, p)
-            q_ref = q
-            p_ref = p
-            q_half = q
-            p_half = p
-            call fixed_run(sys, q_ref, p_ref, reference_steps, error)
+            call reference_state(sys, q, p, span, reference_steps, q_ref, p_ref, difference, &
+                                 status)
+            call check(error, status%ok(), "reference run: " // status%message)
             if (allocated(error)) return
-            call fixed_run(sys, q_half, p_half, reference_steps / 2, error)
-            if (allocated(error)) return
-            call check(error, max(maxval(abs(q_ref - q_half)), maxval(abs(p_ref - p_half))) &
-                <= max(1.0e-32_wp, 1.0e5_wp * epsilon(1.0_wp)), trim(names(s)) // &
-                ": the reference is not converged: " // int_str(reference_steps) // &
-                " steps and half as many differ by " // &
-                real_str(max(maxval(abs(q_ref - q_half)), maxval(abs(p_ref - p_half)))))
+            call check(error, difference <= max(1.0e-32_wp, 1.0e5_wp * epsilon(1.0_wp)), &
+                trim(names(s)) // ": the reference is not converged: " // &
+                int_str(reference_steps) // " steps and half as many differ by " // &
+                real_str(difference))
             if (allocated(error)) return
             call within_request(sys, trim(names(s)), q, p, q_ref, p_ref, error)
             if (allocated(error)) return
@@ -148,23 +146,6 @@ contains
             if (allocated(error)) return
         end do
     end subroutine within_request
-
-    !> `steps` steps of (8, 7, 9) to T (the reference runs; (6, 5, 7) in real64).
-    subroutine fixed_run(sys, q, p, steps, error)
-        class(constrained_hamiltonian), intent(in) :: sys
-        real(wp), intent(inout) :: q(:), p(:)
-        integer, intent(in) :: steps
-        type(test_error_t), allocatable, intent(inout) :: error
-        type(constrained_integrator) :: integ
-        type(holosym_status_t) :: status
-        if (wp_is_double) then
-            call integ%init(sys, 6, 5, 7, status)
-        else
-            call integ%init(sys, 8, 7, 9, status)
-        end if
-        call integ%integrate(sys, q, p, span / steps, steps, status=status)
-        call check(error, status%ok(), "reference run: " // status%message)
-    end subroutine fixed_run
 
     !> A tolerance outside [accuracy_floor, 1) or not finite, T <= 0 or not finite, a plan
     !! of more steps than `integrate` counts, and states of the wrong size are refused,

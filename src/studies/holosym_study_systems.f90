@@ -6,10 +6,11 @@
 !! particle on a sphere in a magnetic field and a spherical pendulum in a generic
 !! potential. Internal: no stability promise.
 module holosym_study_systems
-    use holosym_kinds, only: wp
+    use holosym_kinds, only: wp, wp_is_double
     use holosym_status_codes, only: holosym_status_t, int_str, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
+    use holosym_integrator, only: constrained_integrator
     use holosym_models, only: spherical_pendulum, spring_linkage, planar_pendulum
     use holosym_model_chain, only: pendulum_chain
     use holosym_model_dumbbell, only: sphere_dumbbell
@@ -18,7 +19,7 @@ module holosym_study_systems
     implicit none
     private
 
-    public :: make_system, is_system_name
+    public :: make_system, is_system_name, reference_state
 
     !> The names, in the order of the help texts; the first is the default of the commands.
     character(len=*), parameter, public :: system_names(*) = [character(len=8) :: &
@@ -120,5 +121,39 @@ contains
             status%message = "unknown system '" // name // "'"
         end select
     end subroutine make_system
+
+    !> A reference state at T = span from (q0, p0): `steps` steps of order 16, (8, 7, 9)
+    !! ((6, 5, 7) in real64, where finer high-order steps stall Newton at round-off), and
+    !! `difference`, its distance from the run with half the steps (the reference's
+    !! convergence). Used by `holosym bench --accuracy` and the test suite `accuracy`.
+    subroutine reference_state(sys, q0, p0, span, steps, q_ref, p_ref, difference, status)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q0(:), p0(:) !! start state
+        real(wp), intent(in) :: span         !! T
+        integer, intent(in) :: steps         !! steps to T (even)
+        real(wp), allocatable, intent(out) :: q_ref(:), p_ref(:) !! the state at T
+        real(wp), intent(out) :: difference  !! max |reference - half-steps run|
+        type(holosym_status_t), intent(out) :: status !! the failure of a run
+        type(constrained_integrator) :: integ
+        real(wp), allocatable :: q(:), p(:)
+        integer :: order_m, run
+        order_m = merge(6, 8, wp_is_double)
+        difference = 0
+        q_ref = q0
+        p_ref = p0
+        q = q0
+        p = p0
+        do run = 1, 2
+            call integ%init(sys, order_m, order_m - 1, order_m + 1, status)
+            if (.not. status%ok()) return
+            if (run == 1) then
+                call integ%integrate(sys, q_ref, p_ref, span / steps, steps, status=status)
+            else
+                call integ%integrate(sys, q, p, span / (steps / 2), steps / 2, status=status)
+            end if
+            if (.not. status%ok()) return
+        end do
+        difference = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
+    end subroutine reference_state
 
 end module holosym_study_systems
