@@ -1,15 +1,17 @@
 !> Tests of the Newton policy (`holosym_newton_policy`): each decision on hand-computed
 !! cases (predicted convergence, stagnation, growth, the cost models of refactoring, stale
-!! factors), and the settings that reach it acting on `newton_solve`.
+!! factors), the settings that reach it acting on `newton_solve`, and the iteration on kept
+!! real64 factors (`kept_newton_solve`) on the same systems.
 module test_newton
     use holosym_kinds, only: wp, dp
     use holosym_status_codes, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS, &
-        HOLOSYM_NEWTON_DIVERGED
+        HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_SINGULAR_MATRIX
     use holosym_newton, only: nonlinear_system, newton_settings_t, newton_report_t, &
         newton_solve, newton_workspace_t
     use holosym_newton_policy, only: corrections_needed, predicted_within, stagnated, &
         growth_after, refactor_pays, renewal_pays, slow_iterations, kept_factors_stale, &
         rate_margin, presolve_tolerance, presolve_floor
+    use holosym_kept_newton, only: kept_newton_t, kept_report_t, kept_newton_solve
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
@@ -46,7 +48,9 @@ contains
             new_test("stale_and_slow_factors", stale_factors), &
             new_test("presolve_targets_as_documented", presolve_targets), &
             new_test("settings_act_on_newton_solve", settings_act), &
-            new_test("growing_corrections_diverge", diverges) &
+            new_test("growing_corrections_diverge", diverges), &
+            new_test("kept_factors_solve_and_are_kept", kept_factors), &
+            new_test("kept_factors_settings_act", kept_settings) &
         ]
     end function newton_tests
 
@@ -238,6 +242,81 @@ contains
             int_str(report%iterations) // " iterations, expected 3")
         call check(error, x(1) == 2, "first guess not restored")
     end subroutine diverges
+
+    !> `kept_newton_solve` (the reduced step's iteration) on the circle and the
+    !! exponential, with the default dense Newton matrix of `nonlinear_system`: from
+    !! (1, -1.5) it reaches the root `newton_solve` finds, to the tolerance; a second solve
+    !! from a guess 1e-3 away starts with the kept factors and forms fewer; after `forget`
+    !! the first solve's work is repeated exactly.
+    subroutine kept_factors(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(circle_exponential) :: sys
+        type(newton_settings_t) :: settings
+        type(newton_report_t) :: report
+        type(kept_newton_t) :: state
+        type(kept_report_t) :: work(3)
+        type(holosym_status_t) :: status
+        real(wp) :: root(2), x(2)
+        integer :: trial
+        root = [1.0_wp, -1.5_wp]
+        call newton_solve(sys, root, settings, 1.0_wp, report, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "newton_solve")
+        if (allocated(error)) return
+        call state%setup(2, 1, 1)
+        do trial = 1, 3
+            x = [1.0_wp, -1.5_wp]
+            if (trial == 2) x = root + 1.0e-3_wp
+            if (trial == 3) call state%forget()
+            call kept_newton_solve(sys, x, state, settings, 1.0_wp, 1.0e-20_wp, work(trial), &
+                                   status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "solve " // &
+                int_str(trial) // ": " // status%message)
+            if (allocated(error)) return
+            call check(error, maxval(abs(x - root)) <= 64 * epsilon(1.0_wp), "solve " // &
+                int_str(trial) // " ends " // real_str(maxval(abs(x - root))) // &
+                " from newton_solve's root")
+        end do
+        call check(error, work(2)%factorizations < work(1)%factorizations .and. &
+            work(3)%factorizations == work(1)%factorizations .and. &
+            work(3)%iterations == work(1)%iterations, "factorisations per solve: " // &
+            int_str(work(1)%factorizations) // ", " // int_str(work(2)%factorizations) // &
+            ", " // int_str(work(3)%factorizations) // "; iterations " // &
+            int_str(work(1)%iterations) // ", " // int_str(work(3)%iterations) // &
+            " (expected fewer in the second, the first's again after forget)")
+    end subroutine kept_factors
+
+    !> Failures of `kept_newton_solve`: one iteration allowed does not converge from
+    !! (1, -1.5) (HOLOSYM_NEWTON_NOT_CONVERGED); on atan(x) from x = 2 the iterates grow
+    !! (-3.5, 14, -279, ...) with factors renewed at each one, until the Newton matrix
+    !! 1 / (1 + x^2) falls below the pivot threshold: HOLOSYM_SINGULAR_MATRIX, with the
+    !! iterate where it did (`singular_x`, finite) kept for the caller's diagnosis.
+    subroutine kept_settings(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(circle_exponential) :: circle
+        type(arctangent) :: arc
+        type(kept_newton_t) :: state
+        type(kept_report_t) :: work
+        type(holosym_status_t) :: status
+        real(wp) :: x(2), y(1)
+        call state%setup(2, 1, 1)
+        x = [1.0_wp, -1.5_wp]
+        call kept_newton_solve(circle, x, state, newton_settings_t(max_iterations=1), &
+                               1.0_wp, 1.0e-20_wp, work, status)
+        call check_status_code(error, status%code, HOLOSYM_NEWTON_NOT_CONVERGED, &
+            "one iteration")
+        if (allocated(error)) return
+        call state%setup(1, 0, 0)
+        y = 2
+        work = kept_report_t()
+        call kept_newton_solve(arc, y, state, newton_settings_t(max_growth=2, &
+                               max_iterations=200), 1.0e6_wp, 1.0e-20_wp, work, status)
+        call check_status_code(error, status%code, HOLOSYM_SINGULAR_MATRIX, "atan from 2: " &
+            // status%message)
+        if (allocated(error)) return
+        call check(error, state%have_singular_x .and. abs(state%singular_x(1)) > 100 .and. &
+            abs(state%singular_x(1)) < huge(1.0_dp), "singular at x = " // &
+            real_str(state%singular_x(1)))
+    end subroutine kept_settings
 
     subroutine circle_residual(self, x, f, status)
         class(circle_exponential), intent(inout) :: self

@@ -11,7 +11,10 @@ module test_reduced
     use holosym_model_chain, only: pendulum_chain
     use holosym_reduced_step, only: reduced_step_t
     use holosym_reduced_scheme, only: reduced_scheme_t, reduced_equations
-    use holosym_newton, only: newton_solve, newton_settings_t, newton_report_t
+    use holosym_newton, only: newton_solve, newton_settings_t, newton_report_t, &
+        stagnation_floor
+    use holosym_kept_newton, only: kept_newton_t, kept_report_t, kept_newton_solve
+    use holosym_scheme, only: discrete_scheme
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
@@ -78,7 +81,8 @@ contains
             new_test("nearly_dependent_constraints_fall_back", nearly_dependent), &
             new_test("options_it_does_not_honour_refused", options_refused), &
             new_test("newton_settings_act_on_it", newton_settings_act), &
-            new_test("newton_solve_solves_the_reduced_scheme", newton_solve_reduced) &
+            new_test("newton_solve_solves_the_reduced_scheme", newton_solve_reduced), &
+            new_test("kept_newton_solve_solves_the_general_scheme", kept_newton_general) &
         ]
     end function reduced_tests
 
@@ -292,11 +296,11 @@ contains
             call step%init(pendulum_chain(links(k)), 4, 3, 5, status)
             call check_status_code(error, status%code, HOLOSYM_SUCCESS, "init")
             if (allocated(error)) return
-            kl(k) = step%factors%kl
-            ku(k) = step%factors%ku
+            kl(k) = step%newton%factors%kl
+            ku(k) = step%newton%factors%ku
             call check(error, step%scheme%nx == 13 * links(k), "unknowns 13 per link")
-            if (links(k) >= 32) call check(error, step%factors%banded .and. &
-                size(step%factors%a) == (2 * kl(k) + ku(k) + 1) * step%scheme%nx, &
+            if (links(k) >= 32) call check(error, step%newton%factors%banded .and. &
+                size(step%newton%factors%a) == (2 * kl(k) + ku(k) + 1) * step%scheme%nx, &
                 "banded storage for " // int_str(links(k)) // " links")
         end do
         call check(error, all(kl == kl(1)) .and. all(ku == ku(1)) .and. kl(1) < 52, &
@@ -530,6 +534,77 @@ contains
                 ", " // int_str(report%iterations) // " iterations)")
         end subroutine compare
     end subroutine newton_solve_reduced
+
+    !> The general scheme through the reduced step's iteration: `kept_newton_solve` (real64
+    !! factors of the dense Newton matrix `jacobian_lowered`, kept across the steps) solves
+    !! ten steps of the spherical pendulum and the spring-linkage with (M, N, G) =
+    !! (4, 3, 5), h = 1/8, to the states of `newton_solve` on the same scheme within
+    !! round-off, keeping its factors across iterations (fewer Newton matrices than
+    !! iterations).
+    subroutine kept_newton_general(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum), target :: pendulum
+        type(spring_linkage), target :: linkage
+        pendulum = spherical_pendulum()
+        linkage = spring_linkage()
+        call compare(pendulum)
+        if (allocated(error)) return
+        call compare(linkage)
+    contains
+        subroutine compare(sys)
+            class(constrained_hamiltonian), intent(in), target :: sys
+            type(discrete_scheme) :: scheme
+            type(kept_newton_t) :: state
+            type(kept_report_t) :: work
+            type(newton_settings_t) :: settings
+            type(newton_report_t) :: report
+            type(holosym_status_t) :: status
+            real(wp), allocatable :: q(:, :), p(:, :), x(:), y(:), dq(:), dp(:)
+            real(wp) :: h, scale, difference
+            integer :: k, path
+            h = 0.125_wp
+            allocate (q(sys%n, 2), p(sys%n, 2), dq(sys%n), dp(sys%n))
+            select type (sys)
+            type is (spherical_pendulum)
+                call sys%initial_state(q(:, 1), p(:, 1))
+            type is (spring_linkage)
+                call sys%initial_state(q(:, 1), p(:, 1))
+            end select
+            q(:, 2) = q(:, 1)
+            p(:, 2) = p(:, 1)
+            call scheme%init(4, 3, 5, sys%n, sys%m, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "scheme set-up")
+            if (allocated(error)) return
+            allocate (x(scheme%nx), y(scheme%nx))
+            call state%setup(scheme%nx, scheme%nx - 1, scheme%nx - 1)
+            do k = 1, 10
+                do path = 1, 2
+                    call scheme%set_step(sys, q(:, path), p(:, path), h)
+                    call scheme%constant_guess(x)
+                    scale = max(maxval(abs(q(:, path))), maxval(abs(p(:, path))))
+                    if (path == 1) then
+                        call newton_solve(scheme, x, settings, scale, report, status)
+                    else
+                        call kept_newton_solve(scheme, x, state, settings, scale, &
+                                               stagnation_floor(settings), work, status)
+                    end if
+                    call check_status_code(error, status%code, HOLOSYM_SUCCESS, "step " // &
+                        int_str(k) // ", solver " // int_str(path) // ": " // status%message)
+                    if (allocated(error)) return
+                    call scheme%increments(x, dq, dp, status)
+                    q(:, path) = q(:, path) + dq
+                    p(:, path) = p(:, path) + dp
+                end do
+            end do
+            difference = max(maxval(abs(q(:, 1) - q(:, 2))), maxval(abs(p(:, 1) - p(:, 2))))
+            call check(error, difference <= agreement, "kept_newton_solve and " // &
+                "newton_solve differ by " // real_str(difference) // " after 10 steps " // &
+                "(n = " // int_str(sys%n) // ")")
+            call check(error, work%factorizations < work%iterations, &
+                int_str(work%factorizations) // " Newton matrices for " // &
+                int_str(work%iterations) // " iterations (n = " // int_str(sys%n) // ")")
+        end subroutine compare
+    end subroutine kept_newton_general
 
     !> A NaN gradient in the third step: code 4, the state of step 2 kept.
     subroutine failure_keeps_state(error)

@@ -225,9 +225,9 @@ contains
             if (general) then
                 call self%scheme%node(i, self%q_end_work)
             else
-                if (.not. self%reduced%have_singular_x) return
+                if (.not. self%reduced%newton%have_singular_x) return
                 self%q_end_work = q + &
-                    self%reduced%singular_x(self%reduced%scheme%layout%z_col(:, i))
+                    self%reduced%newton%singular_x(self%reduced%scheme%layout%z_col(:, i))
             end if
             if (.not. all(is_finite(self%q_end_work))) cycle
             if (.not. rank_test(self, sys, self%q_end_work, message, &

@@ -38,6 +38,7 @@ module holosym_reduced_scheme
     use holosym_linalg, only: lu_factor, lu_solve
     use holosym_problem, only: constrained_hamiltonian, refusal_pending, check_refusal
     use holosym_newton, only: all_finite, nonlinear_system
+    use holosym_factors, only: real64_factors_t
     use holosym_reduced_layout, only: reduced_layout_t
     use holosym_reduced_kernels_wp, only: tables_wp => reduced_tables, &
         evaluation_wp => reduced_evaluation, allocate_evaluation_wp => allocate_evaluation, &
@@ -126,6 +127,8 @@ module holosym_reduced_scheme
         procedure :: residual => equations_residual
         procedure :: jacobian => equations_jacobian
         procedure :: residual_lowered => equations_residual_lowered
+        procedure :: residual_dp => equations_residual_dp
+        procedure :: factor_matrix => equations_factor_matrix
     end type reduced_equations
 
 contains
@@ -488,6 +491,36 @@ contains
         call self%scheme%residual_dp(real(x, dp), f_low, status)
         f = real(f_low, wp)
     end subroutine equations_residual_lowered
+
+    !> `residual_dp` of the scheme (for `kept_newton_solve`'s real64 phase).
+    subroutine equations_residual_dp(self, x, f, status)
+        class(reduced_equations), intent(inout) :: self
+        real(dp), intent(in) :: x(:)   !! unknowns (layout order)
+        real(dp), intent(out) :: f(:)  !! residual (layout order)
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        call self%scheme%residual_dp(x, f, status)
+    end subroutine equations_residual_dp
+
+    !> The Newton matrix from the last evaluation (`form_jacobian`), factored in the
+    !! layout's pattern (banded when that is cheaper; for `kept_newton_solve`).
+    subroutine equations_factor_matrix(self, x, lowered, factors, pivot_tolerance, info, &
+                                       status)
+        class(reduced_equations), intent(inout) :: self
+        real(wp), intent(in) :: x(:)         !! the point of the last evaluation
+        logical, intent(in) :: lowered       !! that evaluation was `residual_dp`
+        type(real64_factors_t), intent(inout) :: factors !! set up for the layout's band
+        real(dp), intent(in) :: pivot_tolerance !! relative pivot threshold (<= 0: default)
+        integer, intent(out) :: info         !! 0, or the singular pivot
+        type(holosym_status_t), intent(out) :: status !! non-finite second derivatives
+        if (size(x) /= self%scheme%nx) continue
+        info = 0
+        call self%scheme%form_jacobian(lowered, status)
+        if (.not. status%ok()) return
+        associate (lay => self%scheme%layout)
+            call factors%factor(lay%jac_start, lay%jac_col, self%scheme%jac_values, info, &
+                                pivot_tolerance)
+        end associate
+    end subroutine equations_factor_matrix
 
     !> The Newton matrix at x as a dense matrix (for `newton_solve`): the residual at x,
     !! then `form_jacobian` from that evaluation, its compressed rows expanded.

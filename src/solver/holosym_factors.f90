@@ -64,6 +64,8 @@ module holosym_factors
         procedure :: setup => factors_setup
         !> Load a matrix in compressed sparse rows and factor it.
         procedure :: factor => factors_factor
+        !> Factor a dense matrix (set up dense).
+        procedure :: factor_dense => factors_factor_dense
         !> Solve A x = b in place.
         procedure :: solve => factors_solve
     end type real64_factors_t
@@ -159,6 +161,19 @@ contains
         self%pivot_ratio = smallest / scale
         self%factored = .true.
     end subroutine factors_factor
+
+    !> Factor the dense n x n matrix `a` (the factors set up dense): `factor` with every
+    !! entry in the pattern. `info` as for `factor`.
+    subroutine factors_factor_dense(self, a, info, pivot_tolerance)
+        class(real64_factors_t), intent(inout) :: self
+        real(dp), intent(in) :: a(:, :)      !! the matrix (n x n)
+        integer, intent(out) :: info         !! 0 or the singular pivot
+        real(dp), intent(in), optional :: pivot_tolerance !! relative pivot threshold
+        integer :: r, k, n
+        n = size(a, 1)
+        call self%factor([(1 + (r - 1) * n, r = 1, n + 1)], [((k, k = 1, n), r = 1, n)], &
+                         reshape(transpose(a), [n * n]), info, pivot_tolerance)
+    end subroutine factors_factor_dense
 
     !> Solve A x = b with the factors; b is overwritten by x.
     subroutine factors_solve(self, b)

@@ -24,12 +24,13 @@
 !!   working-precision residual.
 !!
 !! Every decision of the iteration (converged, stagnated, diverging, refactor) and every
-!! constant behind it is in `holosym_newton_policy`, shared with the reduced step.
+!! constant behind it is in `holosym_newton_policy`, shared with `kept_newton_solve`.
 module holosym_newton
     ! IEEE classification for the finiteness tests: it never raises an exception, and used at
     ! module level it adds no per-call floating-point state handling.
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp, wp_is_double
+    use holosym_factors, only: real64_factors_t
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
         lu_solve_dp, default_pivot_tolerance_dp
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
@@ -65,6 +66,15 @@ module holosym_newton
         procedure :: residual_lowered => default_residual_lowered
         !> F'(x) in real64, for the mixed-precision solver (default: `jacobian`, rounded).
         procedure :: jacobian_lowered => default_jacobian_lowered
+        !> F(x) with real64 arguments and results, for the real64 phase of
+        !! `kept_newton_solve` (default: `residual_lowered`, converted).
+        procedure :: residual_dp => default_residual_dp
+        !> The Newton matrix at x, the point of the last evaluation (`residual_dp` when
+        !! `lowered`, else `residual`), formed in real64 and factored into `factors`, for
+        !! `kept_newton_solve`; `info` > 0 names a pivot below `pivot_tolerance` (default:
+        !! `jacobian_lowered`, factored dense). Systems with a sparse or banded Newton
+        !! matrix form it in their pattern from what the evaluation left behind.
+        procedure :: factor_matrix => default_factor_matrix
     end type nonlinear_system
 
     !> Knobs of Newton's method; the defaults derive from epsilon(1.0_wp).
@@ -668,6 +678,40 @@ contains
         call self%jacobian(x, full, status)
         jac = real(full, dp)
     end subroutine default_jacobian_lowered
+
+    !> Default `residual_dp`: `residual_lowered` at x in working precision, rounded.
+    subroutine default_residual_dp(self, x, f, status)
+        class(nonlinear_system), intent(inout) :: self !! the system
+        real(dp), intent(in) :: x(:)   !! unknowns
+        real(dp), intent(out) :: f(:)  !! residual
+        type(holosym_status_t), intent(out) :: status !! failure of the evaluation
+        real(wp) :: f_wp(size(f))
+        call self%residual_lowered(real(x, wp), f_wp, status)
+        f = real(f_wp, dp)
+    end subroutine default_residual_dp
+
+    !> Default `factor_matrix`: `jacobian_lowered` at x, factored as a dense matrix (the
+    !! factors must be set up dense, e.g. with bandwidths n - 1).
+    subroutine default_factor_matrix(self, x, lowered, factors, pivot_tolerance, info, status)
+        class(nonlinear_system), intent(inout) :: self !! the system
+        real(wp), intent(in) :: x(:)         !! the point of the last evaluation
+        logical, intent(in) :: lowered       !! that evaluation was `residual_dp`
+        type(real64_factors_t), intent(inout) :: factors !! set up for size(x), dense
+        real(dp), intent(in) :: pivot_tolerance !! relative pivot threshold (<= 0: default)
+        integer, intent(out) :: info         !! 0, or the singular pivot
+        type(holosym_status_t), intent(out) :: status !! failure of the evaluation
+        real(dp), allocatable :: jac(:, :)
+        if (lowered) continue
+        info = 0
+        allocate (jac(size(x), size(x)))
+        call self%jacobian_lowered(x, jac, status)
+        if (.not. status%ok()) return
+        if (.not. all(ieee_is_finite(jac))) then
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, "non-finite Newton matrix")
+            return
+        end if
+        call factors%factor_dense(jac, info, pivot_tolerance)
+    end subroutine default_factor_matrix
 
     !> Scale each row of a working-precision matrix by a power of two so that its largest
     !! entry lies in [1, 2): the pivot test then does not depend on the equations' units,

@@ -3,17 +3,23 @@
 !! diverging? refactor? when does the real64 phase end?) as a small pure function of the
 !! sizes of the corrections, with every constant it uses named here beside its reason.
 !! Both Newton iterations of the library take their decisions here: `newton_solve`
-!! (dense factors, working precision or real64) and the reduced step (real64 factors,
-!! dense or banded; `holosym_reduced_step`). The decisions know no scheme: only
-!! corrections (sizes relative to the state), their ratios (contraction rates), targets
-!! and the kind of factors.
+!! (dense factors, working precision or real64) and `kept_newton_solve` (real64 factors,
+!! dense or banded, kept across solves; the reduced step's iteration). The decisions know
+!! no scheme: only corrections (sizes relative to the state), their ratios (contraction
+!! rates), targets and the kind of factors.
 module holosym_newton_policy
+    ! The intrinsic classification: pure, and inlined in the decisions of every iteration.
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use holosym_kinds, only: wp, dp
     implicit none
     private
 
     public :: corrections_needed, predicted_within, stagnated, growth_after, &
-        refactor_pays, renewal_pays, slow_iterations, kept_factors_stale
+        refactor_pays, renewal_pays, slow_iterations, kept_factors_stale, next_action
+
+    !> What `next_action` decides after a correction of the kept-factor iteration.
+    integer, parameter, public :: ACTION_ITERATE = 0, ACTION_CONVERGED = 1, &
+        ACTION_REFACTOR = 2, ACTION_DIVERGED = 3
 
     !> Safety factor on the error predicted from a linear contraction rate (simplified
     !! Newton, real64 factors), which varies from one iteration to the next.
@@ -65,6 +71,10 @@ module holosym_newton_policy
     !> The contraction that renewed real64 factors achieve at the end of the reduced
     !! step's real64 phase (their error is then real64 round-off), for `renewal_pays`.
     real(wp), parameter, public :: renewed_rate = 1.0e-12_wp
+    !> Factors renewed at the end of the real64 phase have their contraction measured again
+    !! after this many solves that trusted the last measurement (the matrix drifts with the
+    !! state; one extra correction every 16 solves is cheap).
+    integer, parameter, public :: remeasure_every = 16
     !> Kept factors that would need more than this many further corrections are replaced
     !! (Newton with new factors converges quadratically).
     real(dp), parameter, public :: slow_limit = 4
@@ -187,5 +197,59 @@ contains
         stale = rate > limit
         if (.not. stale) stale = slow_iterations(rate, correction, target)
     end function kept_factors_stale
+
+
+    !> What to do after a Newton correction of relative size `correction` (`previous`: the
+    !! one before with the same factors, huge when none; `last_rate`: the contraction
+    !! before that, 0 when none):
+    !! - CONVERGED when the correction, or the error predicted from the contraction rate
+    !!   theta, theta / (1 - theta) correction with theta the larger of the last two rates
+    !!   (with the margin `rate_margin`), is within `target`; or when corrections stop
+    !!   decreasing (by `stagnation_rate`) below `floor` (round-off);
+    !! - REFACTOR, far from the target, when factors formed at an earlier iterate contract
+    !!   worse than `limit` or too slowly to reach it soon
+    !!   (`slow_iterations`);
+    !! - DIVERGED after `max_growth` growing corrections with fresh factors;
+    !! - else ITERATE.
+    pure subroutine next_action(correction, previous, last_rate, target, floor, fresh, &
+                                max_growth, limit, growth, action)
+        real(wp), intent(in) :: correction, previous, last_rate, target, floor
+        logical, intent(in) :: fresh   !! the factors were formed in this solve
+        integer, intent(in) :: max_growth !! growing corrections that mean divergence
+        real(wp), intent(in) :: limit  !! the contraction limit of kept factors
+        integer, intent(inout) :: growth !! growing corrections so far
+        integer, intent(out) :: action   !! ACTION_ITERATE, _CONVERGED, _REFACTOR, _DIVERGED
+        real(wp) :: rate
+        action = ACTION_ITERATE
+        if (.not. ieee_is_finite(correction)) then
+            growth = max_growth
+            action = ACTION_DIVERGED
+            return
+        end if
+        if (correction <= target) then
+            action = ACTION_CONVERGED
+            return
+        end if
+        if (previous == huge(1.0_wp)) return
+        rate = correction / previous
+        if (predicted_within(max(rate, last_rate), correction, target, rate_margin)) then
+            action = ACTION_CONVERGED
+            return
+        end if
+        if (correction <= floor) then
+            ! Round-off: corrections this small that no longer decrease are noise of the
+            ! residual, not a sign of stale factors.
+            if (stagnated(rate, correction, floor, stagnation_rate)) action = ACTION_CONVERGED
+            return
+        end if
+        if (.not. fresh) then
+            if (kept_factors_stale(rate, correction, target, limit)) then
+                action = ACTION_REFACTOR
+                return
+            end if
+        end if
+        growth = growth_after(rate, growth, .true.)
+        if (growth >= max_growth) action = ACTION_DIVERGED
+    end subroutine next_action
 
 end module holosym_newton_policy

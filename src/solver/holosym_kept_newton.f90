@@ -1,0 +1,379 @@
+!> category: internal module (use holosym)
+!! Simplified Newton on kept real64 factors, for a `nonlinear_system` whose Newton matrix
+!! is cheap to form in real64 and worth keeping across solves (the iteration of the
+!! reduced step; it solves the general scheme too):
+!! - the Newton matrix is formed by the system (`factor_matrix`, dense or banded
+!!   `real64_factors_t`) from its last evaluation, and kept across iterations and solves
+!!   while it contracts well;
+!! - in real128 the first iterations use the real64 residual (`residual_dp`) to about
+!!   1e-13 (`banded_phase_tolerance`), then the working-precision residual to the
+!!   requested tolerance;
+!! - the last correction is applied without a confirming residual when the contraction
+!!   rate says the result is within the tolerance: the caller then updates what it derives
+!!   from the last evaluation to first order across `state%delta` (`state%ended_lowered`
+!!   says which evaluation that was).
+!! Its decisions and constants are those of `holosym_newton_policy`, shared with
+!! `newton_solve`; the settings are `newton_settings_t`'s.
+module holosym_kept_newton
+    ! The intrinsic classification (inlined; at module level it adds no per-call
+    ! floating-point state handling) for the checks inside every iteration.
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+    use holosym_kinds, only: wp, dp, wp_is_double
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
+        HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED
+    use holosym_factors, only: real64_factors_t
+    use holosym_newton, only: nonlinear_system, newton_settings_t, contraction_limit_of, &
+        jacobian_cost_of
+    use holosym_newton_policy, only: next_action, predicted_within, renewal_pays, rate_margin, &
+        retry_kept_every, banded_contraction_limit, banded_jacobian_cost, &
+        banded_phase_tolerance, banded_phase_floor, remeasure_every, ACTION_ITERATE, &
+        ACTION_CONVERGED, ACTION_REFACTOR, ACTION_DIVERGED
+    implicit none
+    private
+
+    public :: kept_newton_t, kept_report_t, kept_newton_solve
+
+    !> The iteration's state across solves: the kept factors, what earlier solves taught
+    !! about them, and the workspace.
+    type :: kept_newton_t
+        type(real64_factors_t) :: factors
+        !> Kept factors proved too stale: form fresh ones at each solve's first guess (tried
+        !! again every `retry_kept_every` solves).
+        logical :: prefer_fresh = .false.
+        integer :: fresh_streak = 0
+        !> Contraction of factors formed at the end of the real64 phase, as measured by the
+        !! working-precision corrections (1: not measured yet). Lets a solve accept its first
+        !! working-precision correction when that is predicted to meet the tolerance.
+        real(wp) :: learned_rate = 1
+        integer :: steps_since_measured = 0
+        !> The last correction applied (real64) and whether the evaluation before it was the
+        !! real64 residual: what the caller updates its results across.
+        real(dp), allocatable :: delta(:)
+        logical :: ended_lowered = .false.
+        !> The iterate at which the Newton matrix was last found singular during the last
+        !! solve (valid when `have_singular_x`): where the equations may be dependent.
+        logical :: have_singular_x = .false.
+        real(wp), allocatable :: singular_x(:)
+        real(wp), allocatable :: f(:)
+        real(dp), allocatable :: x_low(:), f_low(:)
+    contains
+        !> Allocate for nx unknowns and a Newton matrix of bandwidths (kl, ku).
+        procedure :: setup => kept_setup
+        !> Forget the kept factors and what earlier solves taught about them.
+        procedure :: forget => kept_forget
+        !> Drop the kept factors (e.g. a new step size); what was learnt stays.
+        procedure :: invalidate => kept_invalidate
+    end type kept_newton_t
+
+    !> Work of one solve.
+    type :: kept_report_t
+        integer :: iterations = 0            !! Newton iterations (residuals solved with)
+        integer :: factorizations = 0        !! Newton matrices formed and factored
+    end type kept_report_t
+
+    !> What one solve carries between its iterations and the procedures they call.
+    type :: solve_t
+        type(newton_settings_t) :: settings !! Newton's settings
+        real(wp) :: scale = 1       !! size of the state (corrections are relative to it)
+        real(wp) :: stagnation = 0  !! round-off floor of the working-precision corrections
+        !> First working-precision correction after the real64 phase (0: none yet), and
+        !! whether the first corrections are being watched (`first_corrections`).
+        real(wp) :: first = 0
+        logical :: watch = .false.
+        !> Factors were renewed at the end of the real64 phase.
+        logical :: renewed = .false.
+        !> Contraction of the kept factors measured in the real64 phase (1: none).
+        real(wp) :: low_rate = 1
+    end type solve_t
+
+contains
+
+    !> Allocate for nx unknowns and bandwidths (kl, ku) of the Newton matrix (dense storage
+    !! when banded would not be cheaper, `real64_factors_t%setup`); forgets everything.
+    subroutine kept_setup(self, nx, kl, ku)
+        class(kept_newton_t), intent(inout) :: self
+        integer, intent(in) :: nx, kl, ku !! unknowns, sub- and superdiagonals
+        call self%factors%setup(nx, kl, ku)
+        if (allocated(self%delta)) deallocate (self%delta, self%singular_x, self%f, &
+                                               self%x_low, self%f_low)
+        allocate (self%delta(nx), self%singular_x(nx), self%f(nx), self%x_low(nx), &
+                  self%f_low(nx))
+        call self%forget()
+    end subroutine kept_setup
+
+    !> Forget the kept factors and what earlier solves taught: the next solves then depend
+    !! only on their own inputs.
+    subroutine kept_forget(self)
+        class(kept_newton_t), intent(inout) :: self
+        self%factors%factored = .false.
+        self%prefer_fresh = .false.
+        self%fresh_streak = 0
+        self%learned_rate = 1
+        self%steps_since_measured = 0
+    end subroutine kept_forget
+
+    !> Drop the kept factors.
+    elemental subroutine kept_invalidate(self)
+        class(kept_newton_t), intent(inout) :: self
+        self%factors%factored = .false.
+    end subroutine kept_invalidate
+
+    !> Solve F(x) = 0 from the first guess in x by simplified Newton on kept factors (see
+    !! the module's description). `settings`: `tolerance` bounds the error relative to
+    !! `scale`; `stagnation` is the round-off floor of the corrections; `max_iterations`,
+    !! `max_growth`, `contraction_limit`, `jacobian_cost`, `pivot_tolerance` act as in
+    !! `newton_solve`. On success x is the solution and `state%delta` the last correction
+    !! applied to it. Codes: HOLOSYM_SINGULAR_MATRIX (`state%singular_x`),
+    !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED (also an iterate or residual
+    !! beyond the range of real64), or a code of the system's evaluations; x is then the
+    !! last iterate. `retry`: this solve retries a failed one (with factors the caller
+    !! dropped): it does not count as a solve in the habit of preferring fresh factors.
+    subroutine kept_newton_solve(system, x, state, settings, scale, stagnation, report, &
+                                 status, retry)
+        class(nonlinear_system), intent(inout) :: system !! the equations
+        real(wp), intent(inout) :: x(:)                 !! first guess in, solution out
+        type(kept_newton_t), intent(inout) :: state     !! kept factors and workspace
+        type(newton_settings_t), intent(in) :: settings !! Newton's settings
+        real(wp), intent(in) :: scale       !! size of the state (> 0)
+        real(wp), intent(in) :: stagnation  !! round-off floor of the corrections (relative)
+        type(kept_report_t), intent(inout) :: report    !! work, added to
+        type(holosym_status_t), intent(out) :: status   !! outcome
+        logical, intent(in), optional :: retry          !! a retry (default: no)
+        type(solve_t) :: run
+        logical :: first_try
+        run%settings = settings
+        run%scale = scale
+        run%stagnation = stagnation
+        first_try = .true.
+        if (present(retry)) first_try = .not. retry
+        if (first_try) state%have_singular_x = .false.
+        if (state%prefer_fresh .and. first_try) then
+            state%fresh_streak = state%fresh_streak + 1
+            if (mod(state%fresh_streak, retry_kept_every) /= 0) state%factors%factored = .false.
+        end if
+        call iterate(system, x, state, run, report, status)
+    end subroutine kept_newton_solve
+
+    !> Simplified Newton from x (the decisions: `next_action`).
+    subroutine iterate(system, x, state, run, report, status)
+        class(nonlinear_system), intent(inout) :: system
+        real(wp), intent(inout) :: x(:)
+        type(kept_newton_t), intent(inout) :: state
+        type(solve_t), intent(inout) :: run
+        type(kept_report_t), intent(inout) :: report
+        type(holosym_status_t), intent(out) :: status
+        real(wp) :: correction, previous, target, floor, rate, last_rate, limit
+        integer :: iter, growth, action
+        logical :: lowered, fresh, kept, need_factors
+
+        lowered = .not. wp_is_double
+        previous = huge(1.0_wp)
+        growth = 0
+        fresh = .false.
+        rate = 1
+        last_rate = 0
+        kept = state%factors%factored
+        need_factors = .not. state%factors%factored
+        run%renewed = .false.
+        run%watch = .false.
+        run%first = 0
+        run%low_rate = 1
+        limit = contraction_limit_of(run%settings, banded_contraction_limit)
+        do iter = 1, run%settings%max_iterations
+            report%iterations = report%iterations + 1
+            ! The residual at x; new factors, when due, from the same evaluation.
+            call evaluate(system, x, state, lowered, report%iterations, status)
+            if (.not. status%ok()) return
+            if (need_factors) then
+                call refactor(system, x, state, run, lowered, report, status)
+                if (.not. status%ok()) return
+                fresh = .true.
+                need_factors = .false.
+                previous = huge(1.0_wp)
+                last_rate = 0
+            end if
+            target = run%settings%tolerance
+            floor = run%stagnation
+            if (lowered) then
+                target = banded_phase_tolerance
+                floor = banded_phase_floor
+            end if
+            correction = newton_correction(state, run%scale)
+            call next_action(correction, previous, last_rate, target, floor, fresh, &
+                             run%settings%max_growth, limit, growth, action)
+            if (run%watch) call first_corrections(state, run, correction, action)
+            if (action == ACTION_REFACTOR) then
+                ! Kept factors contract poorly: fresh ones at x, same residual.
+                if (kept) state%prefer_fresh = .true.
+                call refactor(system, x, state, run, lowered, report, status)
+                if (.not. status%ok()) return
+                fresh = .true.
+                previous = huge(1.0_wp)
+                last_rate = 0
+                correction = newton_correction(state, run%scale)
+                call next_action(correction, previous, last_rate, target, floor, fresh, &
+                                 run%settings%max_growth, limit, growth, action)
+            end if
+            select case (action)
+            case (ACTION_DIVERGED)
+                call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton corrections " // &
+                    "grew " // int_str(growth) // " times in a row (last " // &
+                    real_str(correction) // ") at iteration " // int_str(iter))
+                return
+            case (ACTION_CONVERGED)
+                x = x - real(state%delta, wp)
+                if (.not. lowered .or. run%settings%tolerance >= banded_phase_tolerance) then
+                    state%ended_lowered = lowered
+                    return
+                end if
+                ! The end of the real64 phase.
+                lowered = .false.
+                if (previous < huge(1.0_wp)) rate = correction / previous
+                need_factors = end_real64_phase(run, rate, correction, previous)
+                previous = huge(1.0_wp)
+                last_rate = 0
+                cycle
+            end select
+            x = x - real(state%delta, wp)
+            if (previous < huge(1.0_wp)) last_rate = correction / previous
+            previous = correction
+            ! Factors formed at an earlier iterate are no longer fresh: a poor rate then
+            ! calls for new ones at the current iterate (full Newton).
+            fresh = .false.
+        end do
+        call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged " // &
+            "after " // int_str(run%settings%max_iterations) // " iterations")
+    end subroutine iterate
+
+    !> The residual at x, in real64 (`lowered`) or working precision, into f_low (and f).
+    !! An iterate or residual beyond the range of real64 (h far beyond the system's scale)
+    !! cannot be lowered: the iteration has diverged.
+    subroutine evaluate(system, x, state, lowered, iteration, status)
+        class(nonlinear_system), intent(inout) :: system
+        real(wp), intent(in) :: x(:)
+        type(kept_newton_t), intent(inout) :: state
+        logical, intent(in) :: lowered
+        integer, intent(in) :: iteration
+        type(holosym_status_t), intent(out) :: status
+        if (lowered) then
+            if (.not. fits_real64(x)) then
+                call beyond_real64("iterate", iteration, status)
+                return
+            end if
+            state%x_low = real(x, dp)
+            call system%residual_dp(state%x_low, state%f_low, status)
+        else
+            call system%residual(x, state%f, status)
+            if (.not. status%ok()) return
+            if (.not. fits_real64(state%f)) then
+                call beyond_real64("residual", iteration, status)
+                return
+            end if
+            state%f_low = real(state%f, dp)
+        end if
+    end subroutine evaluate
+
+    !> At the end of the real64 phase (last correction `correction`, contraction `rate`,
+    !! the one before `previous`): whether to renew the factors for the working-precision
+    !! phase (`renewal_pays`), and the known contraction of the kept ones (a rate measured
+    !! above the real64 round-off predicts theirs) for `first_corrections`.
+    logical function end_real64_phase(run, rate, correction, previous) result(renew)
+        type(solve_t), intent(inout) :: run
+        real(wp), intent(in) :: rate, correction, previous
+        renew = renewal_pays(rate, correction, run%settings%tolerance, &
+                             jacobian_cost_of(run%settings, banded_jacobian_cost))
+        run%renewed = renew
+        run%low_rate = 1
+        if (previous < huge(1.0_wp) .and. correction > 10 * banded_phase_tolerance &
+            .and. rate < 1) run%low_rate = rate
+        run%watch = .true.
+    end function end_real64_phase
+
+    !> HOLOSYM_NEWTON_DIVERGED: the `what` of the iteration left the range of real64.
+    subroutine beyond_real64(what, iteration, status)
+        character(len=*), intent(in) :: what
+        integer, intent(in) :: iteration
+        type(holosym_status_t), intent(out) :: status
+        call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton diverged: the " // &
+            what // " left the range of real64 at iteration " // int_str(iteration))
+    end subroutine beyond_real64
+
+    !> The first working-precision corrections: the first is accepted when a known
+    !! contraction predicts the tolerance met: that of the real64 phase when its factors
+    !! are kept, or `learned_rate` for factors renewed at its end (the second correction
+    !! after a renewal measures it again; every `remeasure_every`-th solve does so).
+    subroutine first_corrections(state, run, correction, action)
+        type(kept_newton_t), intent(inout) :: state
+        type(solve_t), intent(inout) :: run
+        real(wp), intent(in) :: correction
+        integer, intent(inout) :: action
+        real(wp) :: known
+        if (run%first == 0) then
+            run%first = correction
+            if (run%renewed) then
+                state%steps_since_measured = state%steps_since_measured + 1
+                known = state%learned_rate
+                if (state%steps_since_measured >= remeasure_every) known = 1
+            else
+                known = run%low_rate
+            end if
+            if (action == ACTION_ITERATE .and. predicted_within(known, correction, &
+                    run%settings%tolerance, rate_margin)) action = ACTION_CONVERGED
+        else if (run%renewed) then
+            if (run%first > 0) state%learned_rate = correction / run%first
+            state%steps_since_measured = 0
+            run%renewed = .false.
+        end if
+        if (run%first /= correction) run%watch = run%renewed
+    end subroutine first_corrections
+
+    !> delta = the Newton correction for the residual f_low; its size relative to the
+    !! state (`scale`).
+    real(wp) function newton_correction(state, scale) result(correction)
+        type(kept_newton_t), intent(inout) :: state
+        real(wp), intent(in) :: scale
+        state%delta = state%f_low
+        call state%factors%solve(state%delta)
+        correction = maxval(abs(state%delta)) / scale
+    end function newton_correction
+
+    !> Form and factor the Newton matrix at x from the evaluation just made there (real64
+    !! or working precision).
+    subroutine refactor(system, x, state, run, lowered, report, status)
+        class(nonlinear_system), intent(inout) :: system
+        real(wp), intent(in) :: x(:)
+        type(kept_newton_t), intent(inout) :: state
+        type(solve_t), intent(in) :: run
+        logical, intent(in) :: lowered
+        type(kept_report_t), intent(inout) :: report
+        type(holosym_status_t), intent(out) :: status
+        integer :: info
+        call system%factor_matrix(x, lowered, state%factors, &
+                                  real(run%settings%pivot_tolerance, dp), info, status)
+        if (.not. status%ok()) return
+        report%factorizations = report%factorizations + 1
+        if (info /= 0) then
+            state%singular_x = x
+            state%have_singular_x = .true.
+            call set_status(status, HOLOSYM_SINGULAR_MATRIX, "Newton matrix singular at " // &
+                "pivot " // int_str(info) // " of " // int_str(size(x)))
+        end if
+    end subroutine refactor
+
+    !> Whether every finite entry of `values` is within the range of real64, so that
+    !! converting it cannot overflow (NaN and Inf convert as they are; they are not
+    !! compared, which would raise 'invalid').
+    pure logical function fits_real64(values) result(fits)
+        real(wp), intent(in) :: values(:)
+        integer :: k
+        fits = .true.
+        do k = 1, size(values)
+            if (.not. ieee_is_finite(values(k))) cycle
+            if (abs(values(k)) > huge(1.0_dp)) then
+                fits = .false.
+                return
+            end if
+        end do
+    end function fits_real64
+
+end module holosym_kept_newton
