@@ -7,7 +7,9 @@
 !!   [[default_pivot_tolerance_dp]]: the same in real64 through LAPACK.
 !! - [[nonlinear_system]], [[newton_solve]], [[newton_report_t]], [[newton_workspace_t]],
 !!   `LINEAR_SOLVER_NATIVE`, `LINEAR_SOLVER_MIXED`: Newton's method on any square system,
-!!   what one solve did, its work arrays and the linear solvers it factors with.
+!!   what one solve did, its work arrays and the linear solvers it factors with;
+!!   [[kept_newton_solve]], [[kept_newton_t]], [[kept_report_t]]: simplified Newton on
+!!   real64 factors (dense or banded) kept across solves, the reduced step's iteration.
 !! - [[discrete_scheme]], [[scheme_counters_t]], [[unknown_count]]: the general scheme's
 !!   equations of one step and their size for (M, N, G, n, m); `JACOBIAN_ASSEMBLED`,
 !!   `JACOBIAN_RESIDUAL_DIFFERENCES`, `HESSIANS_USER`, `HESSIANS_DIFFERENCES`: its modes
@@ -22,6 +24,7 @@ module holosym_internal
         lu_solve_dp, default_pivot_tolerance_dp
     use holosym_newton, only: nonlinear_system, newton_solve, newton_report_t, &
         newton_workspace_t, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
+    use holosym_kept_newton, only: kept_newton_solve, kept_newton_t, kept_report_t
     use holosym_scheme, only: discrete_scheme, scheme_counters_t, unknown_count, &
         JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, HESSIANS_USER, HESSIANS_DIFFERENCES
     use holosym_task_farm, only: farm_job, task_farm
@@ -36,6 +39,7 @@ module holosym_internal
     ! Newton's method on any `nonlinear_system`.
     public :: nonlinear_system, newton_solve, newton_report_t, newton_workspace_t, &
         LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
+    public :: kept_newton_solve, kept_newton_t, kept_report_t
     ! The discrete equations of one step, with the modes of its Jacobian and Hessians
     ! (`discrete_scheme%jacobian_mode`, `%hessian_mode`).
     public :: discrete_scheme, scheme_counters_t, unknown_count

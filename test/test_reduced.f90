@@ -15,6 +15,7 @@ module test_reduced
         stagnation_floor
     use holosym_kept_newton, only: kept_newton_t, kept_report_t, kept_newton_solve
     use holosym_scheme, only: discrete_scheme
+    use holosym_step_scheme, only: step_scheme, scheme_counters_t
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
@@ -82,7 +83,8 @@ contains
             new_test("options_it_does_not_honour_refused", options_refused), &
             new_test("newton_settings_act_on_it", newton_settings_act), &
             new_test("newton_solve_solves_the_reduced_scheme", newton_solve_reduced), &
-            new_test("kept_newton_solve_solves_the_general_scheme", kept_newton_general) &
+            new_test("kept_newton_solve_solves_the_general_scheme", kept_newton_general), &
+            new_test("one_interface_for_both_schemes", one_interface) &
         ]
     end function reduced_tests
 
@@ -605,6 +607,114 @@ contains
                 int_str(work%iterations) // " iterations (n = " // int_str(sys%n) // ")")
         end subroutine compare
     end subroutine kept_newton_general
+
+    !> Both schemes through the one interface (`step_scheme`), by the same code: bound to
+    !! the first step of the spherical pendulum (h = 1/8) and of a chain of 8 (h = 0.01)
+    !! with (M, N, G) = (4, 3, 5) and solved by `newton_solve` from the constant guess,
+    !! their increments, displacement nodes and dense output at tau = 0.3 and 1 agree to
+    !! round-off, their multipliers to round-off over h^2; the dense q at tau = 1 is q_b, the dense p there is p_b within
+    !! the momentum jump (the local error: p~ has degree N), which is small; each counts
+    !! its residuals.
+    subroutine one_interface(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum), target :: pendulum
+        type(pendulum_chain), target :: chain
+        real(wp) :: theta(8), q(3), p(3), qc(16), pc(16)
+        pendulum = spherical_pendulum()
+        call pendulum%initial_state(q, p)
+        call both_schemes_agree(pendulum, q, p, 0.125_wp, error)
+        if (allocated(error)) return
+        chain = pendulum_chain(8)
+        theta = 0.5_wp
+        call chain%state_from_angles(theta, 0 * theta, qc, pc)
+        call both_schemes_agree(chain, qc, pc, 0.01_wp, error)
+    end subroutine one_interface
+
+    !> `one_interface` for one system and start state.
+    subroutine both_schemes_agree(sys, q, p, h, error)
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        type(test_error_t), allocatable, intent(inout) :: error
+        type(discrete_scheme) :: general
+        type(reduced_scheme_t), target :: reduced
+        type(reduced_equations) :: equations
+        type(holosym_status_t) :: status
+        real(wp) :: dq(sys%n, 2), dp(sys%n, 2), nodes(sys%n, 0:4, 2), jump(2)
+        real(wp) :: lambda(sys%m, 0:4, 2), qd(sys%n, 2, 2), pd(sys%n, 2, 2)
+        real(wp) :: ld(sys%m, 2, 2), residuals(2), difference
+        integer :: k
+        call general%init(4, 3, 5, sys%n, sys%m, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "general set-up")
+        if (allocated(error)) return
+        call reduced%init(sys, 4, 3, 5, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, "reduced set-up")
+        if (allocated(error)) return
+        equations%scheme => reduced
+        call through_interface(general, 1)
+        if (allocated(error)) return
+        call through_interface(equations, 2)
+        if (allocated(error)) return
+        difference = max(maxval(abs(dq(:, 1) - dq(:, 2))), maxval(abs(dp(:, 1) - dp(:, 2))), &
+            maxval(abs(nodes(:, :, 1) - nodes(:, :, 2))), &
+            maxval(abs(qd(:, :, 1) - qd(:, :, 2))), maxval(abs(pd(:, :, 1) - pd(:, :, 2))))
+        call check(error, difference <= agreement, "the two schemes' steps differ by " // &
+            real_str(difference) // " (n = " // int_str(sys%n) // ")")
+        ! The multipliers are fixed by the solve less tightly than the state: the unknowns
+        ! are h lambda (reduced) and lambda enters the positions through h^2.
+        difference = max(maxval(abs(lambda(:, :, 1) - lambda(:, :, 2))), &
+                         maxval(abs(ld(:, :, 1) - ld(:, :, 2)))) / max(1.0_wp, maxval(abs(lambda)))
+        call check(error, difference <= agreement / h**2, "their multipliers differ by " // &
+            real_str(difference) // " (relative; max |lambda| " // &
+            real_str(maxval(abs(lambda))) // ", n = " // int_str(sys%n) // ")")
+        do k = 1, 2
+            difference = maxval(abs(qd(:, 2, k) - q - dq(:, k)))
+            call check(error, difference <= agreement, "scheme " // int_str(k) // &
+                ": dense q at tau = 1 is " // real_str(difference) // " from q_b")
+            difference = maxval(abs(pd(:, 2, k) - p - dp(:, k)))
+            call check(error, difference <= jump(k) * (1 + 1.0e-20_wp) + agreement, &
+                "scheme " // int_str(k) // ": dense p at tau = 1 is " // &
+                real_str(difference) // " from p_b, beyond the momentum jump " // &
+                real_str(jump(k)))
+            call check(error, residuals(k) > 0 .and. jump(k) < 1.0e-6_wp, "scheme " // &
+                int_str(k) // ": " // real_str(residuals(k)) // " residuals counted, " // &
+                "momentum jump " // real_str(jump(k)))
+        end do
+    contains
+        !> The step through the interface alone, into column k of the host's arrays.
+        subroutine through_interface(scheme, k)
+            class(step_scheme), intent(inout) :: scheme
+            integer, intent(in) :: k
+            type(newton_settings_t) :: settings
+            type(newton_report_t) :: report
+            real(wp), allocatable :: x(:)
+            type(scheme_counters_t) :: before, after
+            real(wp) :: lambda_tau(sys%m)
+            integer :: i
+            before = scheme%work()
+            call scheme%bind(sys, q, p, h, status)
+            if (status%ok()) then
+                allocate (x(scheme%unknowns()))
+                call scheme%constant_guess(x)
+                call newton_solve(scheme, x, settings, max(maxval(abs(q)), maxval(abs(p))), &
+                                  report, status)
+            end if
+            if (status%ok()) call scheme%increments(x, dq(:, k), dp(:, k), status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "scheme " // &
+                int_str(k) // ": " // status%message)
+            if (allocated(error)) return
+            do i = 0, 4
+                call scheme%solution_node(x, i, nodes(:, i, k))
+            end do
+            call scheme%node_values(x, lambda(:, :, k))
+            jump(k) = scheme%momentum_jump(x, dp(:, k))
+            call scheme%dense(x, q, p, h, 0.3_wp, qd(:, 1, k), pd(:, 1, k), lambda_tau)
+            ld(:, 1, k) = lambda_tau
+            call scheme%dense(x, q, p, h, 1.0_wp, qd(:, 2, k), pd(:, 2, k), lambda_tau)
+            ld(:, 2, k) = lambda_tau
+            after = scheme%work()
+            residuals(k) = real(after%residuals - before%residuals, wp)
+        end subroutine through_interface
+    end subroutine both_schemes_agree
 
     !> A NaN gradient in the third step: code 4, the state of step 2 kept.
     subroutine failure_keeps_state(error)

@@ -37,7 +37,8 @@ module holosym_reduced_scheme
     use holosym_lagrange, only: lagrange_values, lagrange_matrices
     use holosym_linalg, only: lu_factor, lu_solve
     use holosym_problem, only: constrained_hamiltonian, refusal_pending, check_refusal
-    use holosym_newton, only: all_finite, nonlinear_system
+    use holosym_newton, only: all_finite
+    use holosym_step_scheme, only: step_scheme, scheme_counters_t
     use holosym_factors, only: real64_factors_t
     use holosym_reduced_layout, only: reduced_layout_t
     use holosym_reduced_kernels_wp, only: tables_wp => reduced_tables, &
@@ -117,11 +118,13 @@ module holosym_reduced_scheme
         procedure :: extrapolated_guess => reduced_extrapolated_guess
     end type reduced_scheme_t
 
-    !> The reduced scheme as a `nonlinear_system` (the interface of `newton_solve`, which
-    !! the general scheme implements too): point `scheme` at a set-up scheme; `residual`,
-    !! `jacobian` (the Newton matrix as a dense working-precision matrix) and
-    !! `residual_lowered` (the real64 sums) are the scheme's.
-    type, extends(nonlinear_system), public :: reduced_equations
+    !> The reduced scheme as every scheme presents itself (`step_scheme`, which the
+    !! general scheme implements too): point `scheme` at a set-up scheme. Newton's side
+    !! (`residual`, `jacobian`: the Newton matrix as a dense working-precision matrix,
+    !! `residual_lowered` and `residual_dp`: the real64 sums, `factor_matrix`: the banded
+    !! real64 matrix) and the solved step's (`increments` from an evaluation at the
+    !! solution, nodes, multipliers, momentum ends, dense output, work) are the scheme's.
+    type, extends(step_scheme), public :: reduced_equations
         type(reduced_scheme_t), pointer :: scheme => null() !! the scheme, bound to a step
     contains
         procedure :: residual => equations_residual
@@ -129,6 +132,15 @@ module holosym_reduced_scheme
         procedure :: residual_lowered => equations_residual_lowered
         procedure :: residual_dp => equations_residual_dp
         procedure :: factor_matrix => equations_factor_matrix
+        procedure :: unknowns => equations_unknowns
+        procedure :: bind => equations_bind
+        procedure :: constant_guess => equations_constant_guess
+        procedure :: increments => equations_increments
+        procedure :: solution_node => equations_solution_node
+        procedure :: node_values => equations_node_values
+        procedure :: momentum_jump => equations_momentum_jump
+        procedure :: dense => equations_dense
+        procedure :: work => equations_work
     end type reduced_equations
 
 contains
@@ -470,6 +482,94 @@ contains
             "values of the system)")
         call check_refusal(status, "")
     end subroutine reduced_residual_dp
+
+    !> The scheme's number of unknowns, `nx`.
+    pure integer function equations_unknowns(self)
+        class(reduced_equations), intent(in) :: self
+        equations_unknowns = self%scheme%nx
+    end function equations_unknowns
+
+    !> `set_step` of the scheme.
+    subroutine equations_bind(self, sys, qa, pa, h, status)
+        class(reduced_equations), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys !! the system
+        real(wp), intent(in) :: qa(:), pa(:) !! start state
+        real(wp), intent(in) :: h            !! step size
+        type(holosym_status_t), intent(out) :: status !! outcome
+        call self%scheme%set_step(sys, qa, pa, h, status)
+    end subroutine equations_bind
+
+    !> The constant first guess: no displacement, no multipliers (x = 0).
+    subroutine equations_constant_guess(self, x)
+        class(reduced_equations), intent(in) :: self
+        real(wp), intent(out) :: x(:) !! unknowns (layout order)
+        if (.not. associated(self%scheme)) continue
+        x = 0
+    end subroutine equations_constant_guess
+
+    !> q_b - q_a, p_b - p_a from an evaluation at the solution x (the reduced step saves
+    !! that evaluation: it updates the last one to first order, `linear_dp_change`).
+    subroutine equations_increments(self, x, dq, dp, status)
+        class(reduced_equations), intent(inout) :: self
+        real(wp), intent(in) :: x(:)    !! solution
+        real(wp), intent(out) :: dq(:)  !! q_b - q_a
+        real(wp), intent(out) :: dp(:)  !! p_b - p_a
+        type(holosym_status_t), intent(out) :: status !! non-finite user values
+        real(wp) :: f(size(x))
+        call self%scheme%residual(x, f, status)
+        if (.not. status%ok()) return
+        call self%scheme%increments(dq, dp, .false.)
+    end subroutine equations_increments
+
+    !> Displacement node q_i = q_a + z_i of a solution (q_0 = q_a).
+    subroutine equations_solution_node(self, x, i, q)
+        class(reduced_equations), intent(in) :: self
+        real(wp), intent(in) :: x(:)   !! solution of the bound step
+        integer, intent(in) :: i       !! node index, 0..M
+        real(wp), intent(out) :: q(:)  !! q_i
+        q = self%scheme%qa
+        if (i > 0) q = q + x(self%scheme%layout%z_col(:, i))
+    end subroutine equations_solution_node
+
+    !> The multipliers lambda_k = mu_k / h at the displacement nodes.
+    subroutine equations_node_values(self, x, lambda)
+        class(reduced_equations), intent(in) :: self
+        real(wp), intent(in) :: x(:)            !! solution of the bound step
+        real(wp), intent(out) :: lambda(:, 0:)  !! m x (0:M)
+        call self%scheme%multipliers(x, self%scheme%h, lambda)
+    end subroutine equations_node_values
+
+    !> `momentum_jump` of the scheme for the bound step.
+    function equations_momentum_jump(self, x, dp) result(jump)
+        class(reduced_equations), intent(in) :: self
+        real(wp), intent(in) :: x(:)   !! solution of the bound step
+        real(wp), intent(in) :: dp(:)  !! p_b - p_a
+        real(wp) :: jump
+        jump = self%scheme%momentum_jump(x, self%scheme%pa, dp, self%scheme%h)
+    end function equations_momentum_jump
+
+    !> `dense` of the scheme (its momenta follow from the displacements: pa unused).
+    subroutine equations_dense(self, x, qa, pa, h, tau, q, p, lambda)
+        class(reduced_equations), intent(in) :: self
+        real(wp), intent(in) :: x(:)          !! solution of the step
+        real(wp), intent(in) :: qa(:), pa(:)  !! its start state
+        real(wp), intent(in) :: h             !! its step size
+        real(wp), intent(in) :: tau           !! normalised time t/h
+        real(wp), intent(out) :: q(:), p(:), lambda(:)
+        if (size(pa) /= size(qa)) continue
+        call self%scheme%dense(x, qa, h, tau, q, p, lambda)
+    end subroutine equations_dense
+
+    !> The scheme's user-function calls (it keeps no count of Jacobians and Hessians: the
+    !! Newton matrices are counted by the iteration).
+    function equations_work(self) result(counters)
+        class(reduced_equations), intent(in) :: self
+        type(scheme_counters_t) :: counters
+        counters%residuals = self%scheme%residuals
+        counters%lowered_residuals = self%scheme%lowered_residuals
+        counters%jacobians = self%scheme%jacobians
+        counters%gradients = self%scheme%gradients
+    end function equations_work
 
     !> `residual` of the scheme (for `newton_solve`).
     subroutine equations_residual(self, x, f, status)

@@ -27,7 +27,8 @@ module holosym_scheme
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, refusal_pending, &
         check_refusal, &
         difference_constraint_hessian
-    use holosym_newton, only: nonlinear_system, all_finite, all_finite_matrix
+    use holosym_newton, only: all_finite, all_finite_matrix
+    use holosym_step_scheme, only: step_scheme, scheme_counters_t
     use holosym_scheme_layout, only: scheme_layout_t, unknown_count, max_block_order
     ! The kernels of both kinds, under generic names (the type of the first argument
     ! selects the instance): working precision and real64.
@@ -41,7 +42,7 @@ module holosym_scheme
     implicit none
     private
 
-    public :: unknown_count
+    public :: unknown_count, scheme_counters_t
 
     !> Largest M accepted. Up to M = 30 the Lagrange basis on the Lobatto nodes reproduces
     !! polynomials to 2e-31 (1e3 epsilon), the row-equilibrated Newton Jacobian keeps pivot
@@ -73,20 +74,6 @@ module holosym_scheme
     !! terms, of order delta^2 and delta d, are then below epsilon.
     real(wp), parameter :: linear_update_limit = epsilon(1.0_wp) / 16
 
-    !> Counts of the user-function calls made by a scheme (cumulative since `init`).
-    type, public :: scheme_counters_t
-        !> Residual evaluations (including those of residual-difference Jacobians).
-        integer(int64) :: residuals = 0
-        !> Residual evaluations in real64 arithmetic (`residual_lowered`).
-        integer(int64) :: lowered_residuals = 0
-        !> Jacobian evaluations.
-        integer(int64) :: jacobians = 0
-        !> Calls of dh_dq or dh_dp (each counts one; difference Hessians add 6n per call).
-        integer(int64) :: gradients = 0
-        !> Calls of hessian or constraint_hessian (user's or differences).
-        integer(int64) :: hessians = 0
-    end type scheme_counters_t
-
     !> real64 copies of the tables and real64 workspace of `residual_lowered`; its vectors
     !! x, q, p, f also serve as scratch (no allocation per step) for `set_step`, the
     !! first-order increments and the lowered assembly, which never overlap with it.
@@ -101,7 +88,7 @@ module holosym_scheme
 
     !> The scheme for one (M, N, G) and one problem size (n, m), with its workspace.
     !! Before a Newton solve, `set_step` binds the system, the start state and h.
-    type, extends(nonlinear_system), public :: discrete_scheme
+    type, extends(step_scheme), public :: discrete_scheme
         integer :: order_m = 0       !! M, degree of the displacement polynomial
         integer :: order_n = 0       !! N, degree of the momentum polynomial
         integer :: gauss_points = 0  !! G, Gauss-Legendre points for the Hamiltonian term
@@ -177,6 +164,12 @@ module holosym_scheme
         procedure :: check => scheme_check
         !> Bind the system, start state and step size for the next solve.
         procedure :: set_step => scheme_set_step
+        !> `set_step` as the interface of every scheme (`step_scheme`) has it.
+        procedure :: bind => scheme_bind
+        !> `nx`, as the interface of every scheme has it.
+        procedure :: unknowns => scheme_unknowns
+        !> The calls made so far (`counters`).
+        procedure :: work => scheme_work
         !> Residual of the step equations.
         procedure :: residual => scheme_residual
         !> The residual with the scheme's sums in real64 arithmetic (for a pre-solve).
@@ -393,6 +386,30 @@ contains
         self%q_nodes(:, 0) = qa
         if (self%m > 0) call sys%constraint_jacobian(qa, self%phi_jac(:, :, 0))
     end subroutine scheme_set_step
+
+    !> `set_step`, as `step_scheme%bind`: binding never fails here (status success).
+    subroutine scheme_bind(self, sys, qa, pa, h, status)
+        class(discrete_scheme), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in), target :: sys !! the problem
+        real(wp), intent(in) :: qa(:), pa(:) !! start state (n)
+        real(wp), intent(in) :: h            !! step size
+        type(holosym_status_t), intent(out) :: status !! always success
+        call self%set_step(sys, qa, pa, h)
+        status%code = HOLOSYM_SUCCESS
+    end subroutine scheme_bind
+
+    !> The number of unknowns, `nx`.
+    pure integer function scheme_unknowns(self)
+        class(discrete_scheme), intent(in) :: self
+        scheme_unknowns = self%nx
+    end function scheme_unknowns
+
+    !> The user-function calls made since `init` (`counters`).
+    function scheme_work(self) result(counters)
+        class(discrete_scheme), intent(in) :: self
+        type(scheme_counters_t) :: counters
+        counters = self%counters
+    end function scheme_work
 
     !> Evaluate the polynomials and the user's first derivatives at x (cached). With
     !! `lowered_ok` an evaluation cached by `residual_lowered` at the same x is accepted.
