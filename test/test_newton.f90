@@ -6,8 +6,10 @@ module test_newton
     use holosym_kinds, only: wp, dp
     use holosym_status_codes, only: holosym_status_t, int_str, real_str, HOLOSYM_SUCCESS, &
         HOLOSYM_NEWTON_DIVERGED, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_SINGULAR_MATRIX
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_positive_inf
     use holosym_newton, only: nonlinear_system, newton_settings_t, newton_report_t, &
-        newton_solve, newton_workspace_t
+        newton_solve, newton_workspace_t, fits_real64
+    use holosym_float_bits, only: all_below_exponent
     use holosym_newton_policy, only: corrections_needed, predicted_within, stagnated, &
         growth_after, refactor_pays, renewal_pays, slow_iterations, kept_factors_stale, &
         rate_margin, presolve_tolerance, presolve_floor
@@ -50,7 +52,8 @@ contains
             new_test("settings_act_on_newton_solve", settings_act), &
             new_test("growing_corrections_diverge", diverges), &
             new_test("kept_factors_solve_and_are_kept", kept_factors), &
-            new_test("kept_factors_settings_act", kept_settings) &
+            new_test("kept_factors_settings_act", kept_settings), &
+            new_test("range_checks_by_exponent_bits", range_checks) &
         ]
     end function newton_tests
 
@@ -317,6 +320,28 @@ contains
             abs(state%singular_x(1)) < huge(1.0_dp), "singular at x = " // &
             real_str(state%singular_x(1)))
     end subroutine kept_settings
+
+    !> The range checks read from the exponent bits: 2^1022 and -2^1022 fit real64,
+    !! 2^1023 (beyond which a conversion may overflow) and -huge do not; NaN and Inf pass
+    !! (their own checks report them); an empty set passes; all_below_exponent with limit
+    !! 10 takes 1023.99 (2^9.99...) but not 1024 = 2^10, nor -1024, and looks at the
+    !! first `count` values only.
+    subroutine range_checks(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        real(wp) :: nan, inf, none(0)
+        nan = ieee_value(nan, ieee_quiet_nan)
+        inf = ieee_value(inf, ieee_positive_inf)
+        call check(error, fits_real64([2.0_wp**1022, -2.0_wp**1022, 0.0_wp, tiny(1.0_wp)]), &
+            "2^1022 does not fit")
+        call check(error, .not. fits_real64([1.0_wp, 2.0_wp**1023]), "2^1023 fits")
+        call check(error, .not. fits_real64([-huge(1.0_wp)]), "-huge fits")
+        call check(error, fits_real64([nan, inf, -inf, 1.0_wp]), "NaN or Inf rejected")
+        call check(error, fits_real64(none), "empty set rejected")
+        call check(error, all_below_exponent([1023.99_wp, -1.0_wp], 2, 10), "1023.99 >= 2^10")
+        call check(error, .not. all_below_exponent([1.0_wp, 1024.0_wp], 2, 10), "1024 < 2^10")
+        call check(error, .not. all_below_exponent([-1024.0_wp], 1, 10), "-1024 < 2^10")
+        call check(error, all_below_exponent([1.0_wp, 1024.0_wp], 1, 10), "count ignored")
+    end subroutine range_checks
 
     subroutine circle_residual(self, x, f, status)
         class(circle_exponential), intent(inout) :: self

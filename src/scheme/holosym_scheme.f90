@@ -19,6 +19,7 @@
 module holosym_scheme
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, dp
+    use holosym_float_bits, only: all_below_exponent
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, &
         HOLOSYM_NONFINITE_VALUE, HOLOSYM_NEWTON_DIVERGED
@@ -58,6 +59,11 @@ module holosym_scheme
     !! 5e-34 up to 128 points; G = max(M, N) + 1 <= 31 is what the scheme needs, and 64
     !! leaves room for over-integration (extra points beyond M + 3 change no order).
     integer, parameter, public :: max_gauss_points = 64
+    !> A lowered (real64) evaluation takes unknowns, gradients and entries of Phi below
+    !! 2^492 in magnitude (about 1e148): the products of two such values and their sums
+    !! over the nodes and Gauss points (a few thousand terms) stay below huge(1.0_dp),
+    !! 2^1024. Beyond it the residual is evaluated in working precision.
+    integer, parameter :: lowered_exponent = 492
 
     !> Jacobian assembled from the second derivatives of H and phi (default).
     integer, parameter, public :: JACOBIAN_ASSEMBLED = 1
@@ -495,14 +501,20 @@ contains
 
     !> `evaluate` with the polynomial and quadrature sums in real64 arithmetic; the user's
     !! functions still see working-precision arguments. Accurate to real64 round-off.
-    subroutine evaluate_lowered(self, x, status)
+    !! `lowered` is false (nothing evaluated) when the iterate, a gradient or Phi is too
+    !! large for real64 sums (`lowered_exponent`): the caller evaluates in working
+    !! precision.
+    subroutine evaluate_lowered(self, x, status, lowered)
         class(discrete_scheme), intent(inout) :: self
         real(wp), intent(in) :: x(:)
         type(holosym_status_t), intent(out) :: status
+        logical, intent(out) :: lowered
         integer :: g
 
         status%code = HOLOSYM_SUCCESS
         self%cache_valid = .false.
+        lowered = all_below_exponent(x, size(x), lowered_exponent)
+        if (.not. lowered) return
         associate (low => self%low)
             low%x = real(x, dp)
             do g = 1, self%gauss_points
@@ -511,11 +523,16 @@ contains
                 self%p_gauss(:, g) = real(low%p, wp)
                 call gauss_gradients(self, g, status)
                 if (.not. status%ok()) return
+                lowered = all_below_exponent(self%hq_gauss(:, g), self%n, lowered_exponent) &
+                    .and. all_below_exponent(self%hp_gauss(:, g), self%n, lowered_exponent)
+                if (.not. lowered) return
                 low%hq(:, g) = real(self%hq_gauss(:, g), dp)
                 low%hp(:, g) = real(self%hp_gauss(:, g), dp)
             end do
             call node_jacobians(self, x, status)
             if (.not. status%ok()) return
+            lowered = all_below_exponent(self%phi_jac, size(self%phi_jac), lowered_exponent)
+            if (.not. lowered) return
             low%phi_jac = real(self%phi_jac, dp)
             call d_sums(low%tab, low%step, self%layout, low%x, low%hq, low%phi_jac, low%d)
             self%d_values = real(low%d, wp)
@@ -550,9 +567,16 @@ contains
         real(wp), intent(out) :: f(:)  !! residual (real64 accuracy)
         type(holosym_status_t), intent(out) :: status !! non-finite user values
 
+        logical :: lowered
         self%counters%lowered_residuals = self%counters%lowered_residuals + 1
-        call evaluate_lowered(self, x, status)
+        call evaluate_lowered(self, x, status, lowered)
         if (.not. status%ok()) return
+        if (.not. lowered) then
+            ! Values beyond real64's safe range (an iterate far from any solution, e.g. at
+            ! an absurd h): the working-precision residual, which represents them.
+            call self%residual(x, f, status)
+            return
+        end if
         associate (low => self%low)
             call momentum_rows(low%tab, low%step, self%layout, low%x, low%hp, low%d, low%f)
             associate (rows => self%layout%momentum_rows)

@@ -23,7 +23,7 @@ module holosym_kept_newton
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED
     use holosym_factors, only: real64_factors_t
     use holosym_newton, only: nonlinear_system, newton_settings_t, contraction_limit_of, &
-        jacobian_cost_of
+        jacobian_cost_of, fits_real64
     use holosym_newton_policy, only: next_action, predicted_within, renewal_pays, rate_margin, &
         retry_kept_every, banded_contraction_limit, banded_jacobian_cost, &
         banded_phase_tolerance, banded_phase_floor, remeasure_every, ACTION_ITERATE, &
@@ -359,21 +359,5 @@ contains
                 "pivot " // int_str(info) // " of " // int_str(size(x)))
         end if
     end subroutine refactor
-
-    !> Whether every finite entry of `values` is within the range of real64, so that
-    !! converting it cannot overflow (NaN and Inf convert as they are; they are not
-    !! compared, which would raise 'invalid').
-    pure logical function fits_real64(values) result(fits)
-        real(wp), intent(in) :: values(:)
-        integer :: k
-        fits = .true.
-        do k = 1, size(values)
-            if (.not. ieee_is_finite(values(k))) cycle
-            if (abs(values(k)) > huge(1.0_dp)) then
-                fits = .false.
-                return
-            end if
-        end do
-    end function fits_real64
 
 end module holosym_kept_newton

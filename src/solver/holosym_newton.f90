@@ -28,8 +28,9 @@
 module holosym_newton
     ! IEEE classification for the finiteness tests: it never raises an exception, and used at
     ! module level it adds no per-call floating-point state handling.
-    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
     use holosym_kinds, only: wp, dp, wp_is_double
+    use holosym_float_bits, only: all_below_exponent
     use holosym_factors, only: real64_factors_t
     use holosym_linalg, only: lu_factor, lu_solve, default_pivot_tolerance, lu_factor_dp, &
         lu_solve_dp, default_pivot_tolerance_dp
@@ -44,7 +45,7 @@ module holosym_newton
     private
 
     public :: nonlinear_system, newton_settings_t, newton_report_t, newton_solve
-    public :: newton_workspace_t, all_finite, all_finite_matrix, stagnation_floor, &
+    public :: newton_workspace_t, all_finite, all_finite_matrix, fits_real64, stagnation_floor, &
         newton_settings_valid, contraction_limit_of, jacobian_cost_of
 
     !> Factor the Newton Jacobian in working precision with `lu_factor` (default).
@@ -454,13 +455,27 @@ contains
         it%refactor = .false.
     end subroutine factor_at
 
+    !> Whether every finite entry of `values` is below 2^1023 in magnitude, so that
+    !! converting it to real64 cannot overflow (NaN and Inf convert as they are). Read from
+    !! the exponent bits (`all_below_exponent`): no real128 comparison per entry.
+    pure logical function fits_real64(values) result(fits)
+        real(wp), intent(in) :: values(:)
+        fits = all_below_exponent(values, size(values), maxexponent(1.0_dp) - 1)
+    end function fits_real64
+
     !> Apply the Newton correction for the residual in ws%rhs to x; its size relative to
-    !! max(scale, max|x|).
+    !! max(scale, max|x|). A residual beyond the range of real64 cannot be solved with
+    !! real64 factors: the correction is then +Inf (the iteration has diverged) and x is
+    !! left as it is.
     real(wp) function newton_correction(ws, x, scale) result(correction)
         type(newton_workspace_t), intent(inout) :: ws
         real(wp), intent(inout) :: x(:)
         real(wp), intent(in) :: scale
         ws%rhs(:, 1) = ws%rhs(:, 1) * ws%row_scale
+        if (ws%factors_in_dp .and. .not. fits_real64(ws%rhs(:, 1))) then
+            correction = ieee_value(correction, ieee_positive_inf)
+            return
+        end if
         if (ws%factors_in_dp) then
             ws%rhs_dp = real(ws%rhs, dp)
             call lu_solve_dp(ws%jac_dp, ws%pivots, ws%rhs_dp)
