@@ -6,7 +6,7 @@ module test_events
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
-        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE
+        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, HOLOSYM_SIZE_MISMATCH
     use holosym_models, only: planar_pendulum
     use holosym_integrator, only: constrained_integrator
     use holosym_events, only: event_set, event_t, integrate_events, EVENT_ANY, EVENT_RISING, &
@@ -140,7 +140,8 @@ contains
         end do
     end subroutine time_order
 
-    !> No event function, or samples = 0: HOLOSYM_INVALID_ARGUMENT, the state unchanged.
+    !> No event function, or samples = 0: HOLOSYM_INVALID_ARGUMENT; q of the wrong size:
+    !! HOLOSYM_SIZE_MISMATCH (before any event function sees it); the state unchanged.
     !! An event function that returns NaN from t = 0.6 on: HOLOSYM_NONFINITE_VALUE after
     !! the step where it did, with the event found before it (t = 0.3).
     subroutine bad_input(error)
@@ -165,6 +166,8 @@ contains
         call integrate_events(integ, sys, q, p, 0.25_wp, 4, clock, found, stopped, status, &
                               samples=0)
         call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "samples 0")
+        call integrate_events(integ, sys, q(1:1), p, 0.25_wp, 4, clock, found, stopped, status)
+        call check_status_code(error, status%code, HOLOSYM_SIZE_MISMATCH, "size of q")
         call check(error, all(q == q0) .and. all(p == p0), "state changed by a refusal")
         clock%nan_after = 0.6_wp
         call integrate_events(integ, sys, q, p, 0.25_wp, 8, clock, found, stopped, status, &

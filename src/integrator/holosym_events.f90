@@ -24,7 +24,8 @@
 module holosym_events
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, set_status, real_str, int_str, &
-        is_finite, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE
+        is_finite, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, &
+        HOLOSYM_SIZE_MISMATCH
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
     implicit none
@@ -112,6 +113,7 @@ contains
     !! then the state at that event, a step of the scheme; else the state after the last
     !! step). `samples` (>= 1, default 4): parts of each step searched for sign changes.
     !! Codes: those of `integrate`; HOLOSYM_INVALID_ARGUMENT (count < 1, samples < 1),
+    !! HOLOSYM_SIZE_MISMATCH (q or p not of size n),
     !! HOLOSYM_NONFINITE_VALUE (an event function returned NaN or Inf: the run stops after
     !! the step where it did, with the events found before).
     subroutine integrate_events(integ, sys, q, p, h, steps, events, found, stopped, status, &
@@ -142,6 +144,12 @@ contains
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "events need count >= 1 " // &
                 "and samples >= 1; got count " // int_str(events%count()) // &
                 ", samples " // int_str(locator%samples))
+            return
+        end if
+        ! The event functions see the start state: its sizes first.
+        if (size(q) /= sys%n .or. size(p) /= sys%n) then
+            call set_status(status, HOLOSYM_SIZE_MISMATCH, "q and p must have size n = " // &
+                int_str(sys%n) // "; got " // int_str(size(q)) // " and " // int_str(size(p)))
             return
         end if
         locator%events => events
