@@ -210,6 +210,37 @@ int holosym_plan_accuracy(holosym_integrator *integrator, const holosym_real *q,
                           const holosym_real *p, const holosym_real *tolerance,
                           const holosym_real *T, holosym_real *h, int *steps, int *orders);
 
+/* ---- Events (docs/events.md) ---- */
+
+/* Event function k (1..count) at (t, q, p) into *value; return 0, or non-zero where it
+ * cannot be evaluated (the run then stops with HOLOSYM_NONFINITE_VALUE). */
+typedef int (*holosym_event_fn)(int k, const holosym_real *t, const holosym_real *q,
+                                const holosym_real *p, holosym_real *value, void *data);
+/* Receives a located event: function k, direction +1 (g rose through zero) or -1, its
+ * time, state and multipliers (lambda has m values; one unused value when m = 0). Return
+ * non-zero to receive no further events. */
+typedef int (*holosym_event_found_fn)(int k, int direction, const holosym_real *t,
+                                      const holosym_real *q, const holosym_real *p,
+                                      const holosym_real *lambda, void *data);
+
+/* Directions of the crossings wanted, per event function (directions[k - 1]). */
+#define HOLOSYM_EVENT_ANY 0
+#define HOLOSYM_EVENT_RISING 1
+#define HOLOSYM_EVENT_FALLING (-1)
+
+/* steps steps of size *h in place as holosym_integrate, locating the zero crossings of
+ * the count event functions g within each step to the accuracy of the scheme's steps;
+ * directions and terminal (non-zero: a crossing ends the run at the event) hold count
+ * values each, or are NULL (HOLOSYM_EVENT_ANY, not terminal). After the run the events
+ * go to found (may be NULL) in time order; *stopped (may be NULL) is 1 when a terminal
+ * event ended the run, q and p then hold the state at the event. Reals through pointers
+ * in both builds. */
+int holosym_integrate_events(holosym_integrator *integrator, holosym_real *q,
+                             holosym_real *p, const holosym_real *h, int steps, int count,
+                             holosym_event_fn g, const int *directions, const int *terminal,
+                             holosym_event_found_fn found, void *data, int *steps_done,
+                             int *stopped);
+
 #ifdef __cplusplus
 }
 #endif

@@ -11,7 +11,7 @@ module test_capi
     use holosym_status_codes, only: real_str, int_str, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_STEP_SIZE, &
         HOLOSYM_NOT_INITIALIZED, HOLOSYM_OUTSIDE_DOMAIN, HOLOSYM_USER_ABORT, &
-        HOLOSYM_INVALID_MODEL, holosym_status_t, status_code_table
+        HOLOSYM_INVALID_MODEL, HOLOSYM_NONFINITE_VALUE, holosym_status_t, status_code_table
     use holosym_integrator, only: constrained_integrator
     use holosym_models, only: planar_pendulum
     use holosym_c, only: holosym_system_c, c_real, holosym_create, holosym_destroy, &
@@ -21,7 +21,9 @@ module test_capi
         holosym_model_initial_state, holosym_model_parameter_count, holosym_model_name, &
         holosym_step_p, holosym_integrate_p, holosym_dense_output_p, &
         holosym_model_set_parameter_p, holosym_energy, holosym_constraint, &
-        holosym_plan_accuracy, name_parameter_c, name_coordinate_c, name_momentum_c
+        holosym_plan_accuracy, name_parameter_c, name_coordinate_c, name_momentum_c, &
+        holosym_integrate_events
+    use holosym_events, only: event_set, event_t, integrate_events
     use holosym_formula_model, only: formula_model, load_model
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
@@ -29,6 +31,13 @@ module test_capi
     public :: capi_tests
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
+
+    !> g = x, the Fortran twin of `c_event_x`.
+    type, extends(event_set) :: x_event
+    contains
+        procedure :: count => x_event_count
+        procedure :: value => x_event_value
+    end type x_event
 
 contains
 
@@ -46,7 +55,8 @@ contains
             new_test("destroyed_and_foreign_handles_refused", dead_handles), &
             new_test("header_and_docs_follow_the_status_table", header_codes), &
             new_test("reals_through_pointers_match_values", pointer_calls), &
-            new_test("plan_accuracy_as_in_fortran", plan_accuracy)]
+            new_test("plan_accuracy_as_in_fortran", plan_accuracy), &
+            new_test("events_as_in_fortran", events_through_c)]
     end function capi_tests
 
     ! ---------------------------------------------------------------- C callbacks
@@ -142,6 +152,41 @@ contains
         c_watch_p = 0
         if (step == 3) c_watch_p = 1
     end function c_watch_p
+
+    !> Event function of holosym_integrate_events: g = x; it fails (returns 7) from t = 0.5
+    !! on when data (a real(c_real) array of 16) holds -1 in its last entry.
+    integer(c_int) function c_event_x(k, t, q, p, value, data) bind(C)
+        integer(c_int), value :: k
+        real(c_real), intent(in) :: t
+        real(c_real), intent(in) :: q(*), p(*)
+        real(c_real), intent(out) :: value
+        type(c_ptr), value :: data
+        real(c_real), pointer :: seen(:)
+        value = q(1)
+        c_event_x = 0
+        if (c_associated(data)) then
+            call c_f_pointer(data, seen, [16])
+            if (seen(16) == -1 .and. t >= 0.5_c_real) c_event_x = 7
+        end if
+        if (k < 0 .or. p(1) /= p(1)) continue
+    end function c_event_x
+
+    !> Receives events into data (a real(c_real) array of 16): the count in the first
+    !! entry, then index, direction, t and x of each.
+    integer(c_int) function c_event_seen(k, direction, t, q, p, lambda, data) bind(C)
+        integer(c_int), value :: k, direction
+        real(c_real), intent(in) :: t
+        real(c_real), intent(in) :: q(*), p(*), lambda(*)
+        type(c_ptr), value :: data
+        real(c_real), pointer :: seen(:)
+        integer :: j
+        call c_f_pointer(data, seen, [16])
+        seen(1) = seen(1) + 1
+        j = 2 + 4 * (nint(seen(1)) - 1)
+        if (j + 3 <= 16) seen(j:j + 3) = [real(k, c_real), real(direction, c_real), t, q(1)]
+        c_event_seen = 0
+        if (p(1) /= p(1) .or. lambda(1) /= lambda(1)) continue
+    end function c_event_seen
 
     !> The planar pendulum's system struct.
     function pendulum_struct() result(system)
@@ -609,7 +654,8 @@ contains
             start = finish + 1
             if (index(row, "/*") > 0) row = row(:index(row, "/*") - 1)
             read (row, *, iostat=io) name
-            if (name == "HOLOSYM_H" .or. index(name, "HOLOSYM_NAME_") == 1) cycle
+            if (name == "HOLOSYM_H" .or. index(name, "HOLOSYM_NAME_") == 1 .or. &
+                index(name, "HOLOSYM_EVENT_") == 1) cycle
             value = adjustl(row(len_trim(name) + 1:))
             if (value(1:1) == "(") value = value(2:index(value, ")") - 1)
             read (value, *, iostat=io) code
@@ -800,5 +846,94 @@ contains
         call holosym_destroy(by_value)
         call holosym_destroy(by_pointer)
     end subroutine pointer_calls
+
+    !> holosym_integrate_events on the callback pendulum gives the events of the Fortran
+    !! integrate_events on the built-in one (two passages of the vertical in 96 steps of
+    !! 1/16 with (8, 7, 9), falling then rising, the same times and states within the
+    !! scheme's accuracy); a terminal rising event ends the run at its state (*stopped =
+    !! 1); a g that fails stops the run with HOLOSYM_NONFINITE_VALUE; a NULL g is refused.
+    subroutine events_through_c(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(c_ptr) :: handle
+        type(planar_pendulum) :: sys
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        type(event_t), allocatable :: found(:)
+        type(holosym_system_c), target :: system
+        real(c_real), target :: q(2), p(2), h, seen(16)
+        real(wp) :: qf(2), pf(2), agreement
+        integer(c_int), target :: done, stopped, rising(1), stops(1)
+        logical :: ended
+        integer :: j
+        agreement = max(1.0e-29_wp, 1.0e4_wp * eps)
+        sys = planar_pendulum()
+        call sys%initial_state(qf, pf)
+        call integ%init(sys, 8, 7, 9, status)
+        call integrate_events(integ, sys, qf, pf, 1.0_wp / 16, 96, x_event(), found, ended, &
+                              status)
+        system = pendulum_struct()
+        handle = holosym_create(c_loc(system), 8_c_int, 7_c_int, 9_c_int)
+        call sys%initial_state(qf, pf)
+        q = qf
+        p = pf
+        h = 1.0_c_real / 16
+        seen = 0
+        call check_status_code(error, int(holosym_integrate_events(handle, c_loc(q), c_loc(p), &
+            c_loc(h), 96_c_int, 1_c_int, c_funloc(c_event_x), c_null_ptr, c_null_ptr, &
+            c_funloc(c_event_seen), c_loc(seen), c_loc(done), c_loc(stopped))), &
+            HOLOSYM_SUCCESS, message_of(handle))
+        if (allocated(error)) return
+        call check(error, nint(seen(1)) == 2 .and. size(found) == 2 .and. done == 96 .and. &
+            stopped == 0, int_str(nint(seen(1))) // " events through C, " // &
+            int_str(size(found)) // " in Fortran, " // int_str(int(done)) // " steps")
+        if (allocated(error)) return
+        do j = 1, 2
+            call check(error, nint(seen(4 * j - 1)) == found(j)%direction .and. &
+                abs(real(seen(4 * j), wp) - found(j)%t) <= agreement, "event " // &
+                int_str(j) // ": t = " // real_str(real(seen(4 * j), wp)) // " through C, " &
+                // real_str(found(j)%t) // " in Fortran")
+        end do
+        call sys%initial_state(qf, pf)
+        q = qf
+        p = pf
+        seen = 0
+        rising = 1
+        stops = 1
+        call check_status_code(error, int(holosym_integrate_events(handle, c_loc(q), c_loc(p), &
+            c_loc(h), 96_c_int, 1_c_int, c_funloc(c_event_x), c_loc(rising), c_loc(stops), &
+            c_funloc(c_event_seen), c_loc(seen), c_loc(done), c_loc(stopped))), &
+            HOLOSYM_SUCCESS, message_of(handle))
+        call check(error, stopped == 1 .and. nint(seen(1)) == 1 .and. nint(seen(3)) == 1 .and. &
+            q(1) == seen(5) .and. abs(real(seen(4), wp) - found(2)%t) <= agreement, &
+            "terminal rising event: stopped " // int_str(int(stopped)) // ", x " // &
+            real_str(real(q(1), wp)) // " and " // real_str(real(seen(5), wp)))
+        call sys%initial_state(qf, pf)
+        q = qf
+        p = pf
+        seen(16) = -1
+        call check_status_code(error, int(holosym_integrate_events(handle, c_loc(q), c_loc(p), &
+            c_loc(h), 96_c_int, 1_c_int, c_funloc(c_event_x), c_null_ptr, c_null_ptr, &
+            c_null_funptr, c_loc(seen), c_loc(done), c_null_ptr)), HOLOSYM_NONFINITE_VALUE, &
+            "a failing g: " // message_of(handle))
+        call check(error, done == 8, int_str(int(done)) // " steps before g failed at " // &
+            "t = 0.5, expected 8")
+        call check_status_code(error, int(holosym_integrate_events(handle, c_loc(q), c_loc(p), &
+            c_loc(h), 96_c_int, 1_c_int, c_null_funptr, c_null_ptr, c_null_ptr, &
+            c_null_funptr, c_null_ptr, c_null_ptr, c_null_ptr)), HOLOSYM_INVALID_ARGUMENT, &
+            "NULL g")
+        call holosym_destroy(handle)
+    end subroutine events_through_c
+
+    integer function x_event_count(self)
+        class(x_event), intent(in) :: self
+        x_event_count = 1
+    end function x_event_count
+
+    real(wp) function x_event_value(self, k, t, q, p) result(g)
+        class(x_event), intent(in) :: self
+        integer, intent(in) :: k
+        real(wp), intent(in) :: t, q(:), p(:)
+        g = q(1)
+    end function x_event_value
 
 end module test_capi

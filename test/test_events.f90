@@ -140,8 +140,9 @@ contains
         end do
     end subroutine time_order
 
-    !> No event function, or samples = 0: HOLOSYM_INVALID_ARGUMENT; q of the wrong size:
-    !! HOLOSYM_SIZE_MISMATCH (before any event function sees it); the state unchanged.
+    !> No event function, samples = 0 or direction 2: HOLOSYM_INVALID_ARGUMENT; q of the
+    !! wrong size: HOLOSYM_SIZE_MISMATCH (before any event function sees it); the state
+    !! unchanged.
     !! An event function that returns NaN from t = 0.6 on: HOLOSYM_NONFINITE_VALUE after
     !! the step where it did, with the event found before it (t = 0.3).
     subroutine bad_input(error)
@@ -166,6 +167,9 @@ contains
         call integrate_events(integ, sys, q, p, 0.25_wp, 4, clock, found, stopped, status, &
                               samples=0)
         call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "samples 0")
+        call integrate_events(integ, sys, q, p, 0.25_wp, 4, vertical_passage(wanted=2), found, &
+                              stopped, status)
+        call check_status_code(error, status%code, HOLOSYM_INVALID_ARGUMENT, "direction 2")
         call integrate_events(integ, sys, q(1:1), p, 0.25_wp, 4, clock, found, stopped, status)
         call check_status_code(error, status%code, HOLOSYM_SIZE_MISMATCH, "size of q")
         call check(error, all(q == q0) .and. all(p == p0), "state changed by a refusal")

@@ -402,3 +402,84 @@ def test_plan_accuracy_reaches_the_request():
         planned.plan_accuracy(2, 10)
     assert failure.value.code == holosym.INVALID_ARGUMENT
     assert "tolerance" in str(failure.value)
+
+
+# The planar pendulum released at rest at 1 rad passes the vertical at t = (2j + 1) K,
+# K = K(sin(1/2)) (40 digits from mpmath's ellipk(sin(1/2)^2)).
+QUARTER = Decimal("1.674993916092613178175302844790253856807")
+
+
+def passage(j):
+    """The time of passage j (from 0), (2j + 1) K, to 60 digits."""
+    import decimal
+    with decimal.localcontext() as context:
+        context.prec = 60
+        return (2 * j + 1) * QUARTER
+
+
+def distance(a, b):
+    """|a - b| of Decimals or Fractions, to 60 digits (the default context rounds to 28)."""
+    import decimal
+    with decimal.localcontext() as context:
+        context.prec = 60
+        if isinstance(b, Fraction):
+            b = Decimal(b.numerator) / b.denominator
+        return abs(a - b)
+
+
+def test_events_at_the_exact_passages():
+    # g = x with every digit (exact=True): the passages within the scheme's accuracy at
+    # (8, 7, 9), h = 1/16, falling then rising; with floats g limits them to about 1e-16
+    model = holosym.Model.builtin("planar_pendulum")
+    integ = holosym.Integrator(model, M=8, h=Fraction(1, 16))
+    found, stopped = integ.integrate_events(96, [lambda t, q, p: q[0]], exact=True)
+    assert not stopped and len(found) == 2
+    assert [e.direction for e in found] == [-1, 1]
+    for j, event in enumerate(found):
+        assert distance(event.t, passage(j)) < Decimal("1e-29")
+        assert abs(event.q[0]) < Decimal("1e-29")
+        assert event.index == 0 and len(event.lam) == 1
+    assert integ.t == 6
+    floats = holosym.Integrator(model, M=8, h=Fraction(1, 16))
+    found, _ = floats.integrate_events(96, [lambda t, q, p: q[0]])
+    assert len(found) == 2 and abs(found[0].t - float(QUARTER)) < 1e-12
+
+
+def test_terminal_event_ends_the_run_there():
+    # a terminal rising passage: the run stops at 3K with the state there; a second
+    # function t - 1 (any direction) is reported before it
+    model = holosym.Model.builtin("planar_pendulum")
+    integ = holosym.Integrator(model, M=8, h=Fraction(1, 16))
+    found, stopped = integ.integrate_events(
+        200, [lambda t, q, p: q[0], lambda t, q, p: t - 1], directions=[1, 0],
+        terminal=[True, False], exact=True)
+    assert stopped and [e.index for e in found] == [1, 0]
+    assert distance(found[0].t, Decimal(1)) < Decimal("1e-30")
+    assert distance(found[1].t, passage(1)) < Decimal("1e-29")
+    assert integ.state[0] == found[1].q and integ.state[1] == found[1].p
+    assert distance(found[1].t, integ.t) < Decimal("1e-40")
+
+
+def test_events_bad_input():
+    model = holosym.Model.builtin("planar_pendulum")
+    integ = holosym.Integrator(model, M=4, h=Fraction(1, 8))
+    start = integ.state
+    with pytest.raises(holosym.Error) as failure:
+        integ.integrate_events(8, [])
+    assert failure.value.code == holosym.INVALID_ARGUMENT
+    with pytest.raises(holosym.Error) as failure:
+        integ.integrate_events(8, [lambda t, q, p: q[0]], directions=[2])
+    assert failure.value.code == holosym.INVALID_ARGUMENT
+    with pytest.raises(holosym.Error) as failure:
+        integ.integrate_events(8, [lambda t, q, p: q[0]], directions=[1, 0])
+    assert failure.value.code == holosym.SIZE_MISMATCH
+    assert integ.state == start
+
+    def broken(t, q, p):
+        if t > 0.5:
+            raise ZeroDivisionError("broken event function")
+        return q[0]
+
+    with pytest.raises(ZeroDivisionError):
+        integ.integrate_events(8, [broken])
+    assert integ.t == Fraction(5, 8)  # the steps before the failure stand

@@ -25,7 +25,7 @@ module holosym_c
 #ifndef HOLOSYM_REAL64
     use, intrinsic :: iso_c_binding, only: c_float128
 #endif
-    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, HOLOSYM_SUCCESS, &
         HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NOT_INITIALIZED, HOLOSYM_INVALID_DIMENSION, &
@@ -34,6 +34,7 @@ module holosym_c
     use holosym_formula_model, only: formula_model, model_from_text
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
+    use holosym_events, only: event_set, event_t, integrate_events
     use holosym_projection, only: project_to_manifold
     use holosym_c_registry, only: register_handle, forget_handle, is_live_handle
     implicit none
@@ -52,6 +53,8 @@ module holosym_c
         holosym_model_set_parameter_p, holosym_energy, holosym_constraint
     ! The trade of speed for accuracy as one argument.
     public :: holosym_plan_accuracy
+    ! Events: zero crossings of functions of the motion.
+    public :: holosym_integrate_events
 
     !> What `holosym_model_name` names (HOLOSYM_NAME_* in the header).
     integer(c_int), parameter, public :: name_parameter_c = 0, name_coordinate_c = 1, &
@@ -119,6 +122,25 @@ module holosym_c
             real(c_real), intent(in) :: q(*), p(*)
             type(c_ptr), value :: data
         end function c_observer
+        !> An event function of `holosym_integrate_events`: g_k(t, q, p) into value; any
+        !! return other than 0: it cannot be evaluated there.
+        integer(c_int) function c_event_function(k, t, q, p, value, data) bind(C)
+            import :: c_int, c_real, c_ptr
+            integer(c_int), value :: k
+            real(c_real), intent(in) :: t
+            real(c_real), intent(in) :: q(*), p(*)
+            real(c_real), intent(out) :: value
+            type(c_ptr), value :: data
+        end function c_event_function
+        !> Receives each event `holosym_integrate_events` located, in time order; any return
+        !! other than 0: no further events are passed.
+        integer(c_int) function c_event_found(k, direction, t, q, p, lambda, data) bind(C)
+            import :: c_int, c_real, c_ptr
+            integer(c_int), value :: k, direction
+            real(c_real), intent(in) :: t
+            real(c_real), intent(in) :: q(*), p(*), lambda(*)
+            type(c_ptr), value :: data
+        end function c_event_found
         !> The observer of `holosym_integrate_p`: t through a pointer.
         integer(c_int) function c_observer_p(handle, step, t, q, p, data) bind(C)
             import :: c_int, c_real, c_ptr
@@ -164,6 +186,20 @@ module holosym_c
     contains
         procedure :: observe => c_observe
     end type c_step_observer
+
+    !> The event functions of `holosym_integrate_events`: a C callback with its
+    !! directions and terminal flags (arrays of `count`, or defaults when NULL).
+    type, extends(event_set) :: c_event_set
+        procedure(c_event_function), pointer, nopass :: fn => null()
+        integer :: functions = 0
+        integer(c_int), allocatable :: directions(:), stops(:)
+        type(c_ptr) :: data = c_null_ptr
+    contains
+        procedure :: count => c_event_count
+        procedure :: value => c_event_value
+        procedure :: direction => c_event_direction
+        procedure :: terminal => c_event_terminal
+    end type c_event_set
 
     !> What a C handle points to: the integrator and its system, C callbacks
     !! (`holosym_create`) or a model (`holosym_model_create`).
@@ -296,6 +332,43 @@ contains
                 halt = .true.
         end if
     end subroutine c_observe
+
+    integer function c_event_count(self)
+        class(c_event_set), intent(in) :: self
+        c_event_count = self%functions
+    end function c_event_count
+
+    !> g_k from the callback; NaN where it returns non-zero (the run then stops with
+    !! HOLOSYM_NONFINITE_VALUE naming the function).
+    real(wp) function c_event_value(self, k, t, q, p) result(g)
+        class(c_event_set), intent(in) :: self
+        integer, intent(in) :: k
+        real(wp), intent(in) :: t, q(:), p(:)
+        real(c_real) :: t_c, q_c(size(q)), p_c(size(p)), value
+        t_c = t
+        q_c = q
+        p_c = p
+        value = 0
+        if (self%fn(int(k, c_int), t_c, q_c, p_c, value, self%data) /= 0) then
+            g = ieee_value(g, ieee_quiet_nan)
+        else
+            g = value
+        end if
+    end function c_event_value
+
+    integer function c_event_direction(self, k)
+        class(c_event_set), intent(in) :: self
+        integer, intent(in) :: k
+        c_event_direction = 0
+        if (allocated(self%directions)) c_event_direction = self%directions(k)
+    end function c_event_direction
+
+    logical function c_event_terminal(self, k)
+        class(c_event_set), intent(in) :: self
+        integer, intent(in) :: k
+        c_event_terminal = .false.
+        if (allocated(self%stops)) c_event_terminal = self%stops(k) /= 0
+    end function c_event_terminal
 
     ! ---------------------------------------------------------------- helpers
 
@@ -624,6 +697,107 @@ contains
         end if
         code = finish(handle, status)
     end function run_integrate
+
+    !> int holosym_integrate_events(holosym_integrator *integrator, holosym_real *q,
+    !! holosym_real *p, const holosym_real *h, int steps, int count, holosym_event_fn g,
+    !! const int *directions, const int *terminal, holosym_event_found_fn found,
+    !! void *data, int *steps_done, int *stopped): `steps` steps in place as
+    !! `holosym_integrate`, locating the zero crossings of g(k, t, q, p), k = 1..count
+    !! (Fortran `integrate_events`, docs/events.md); directions (-1, 0, 1 per function)
+    !! and terminal (non-zero: the run ends at the event) may be NULL (0 for all). The
+    !! events are passed to `found` (may be NULL) in time order after the run, with their
+    !! state and multipliers; *stopped (may be NULL) is 1 when a terminal event ended the
+    !! run (q, p then hold the state at the event). Reals through pointers, so that ctypes
+    !! can call it in both builds. A g that returns non-zero stops the run with
+    !! HOLOSYM_NONFINITE_VALUE after the step where it did.
+    integer(c_int) function holosym_integrate_events(ptr, q_ptr, p_ptr, h_ptr, steps, count, &
+        g, directions, terminal, found, data, steps_done, stopped) &
+        bind(C, name="holosym_integrate_events")
+        type(c_ptr), value :: ptr             !! the handle
+        type(c_ptr), value :: q_ptr, p_ptr    !! holosym_real *: the state (n each)
+        type(c_ptr), value :: h_ptr           !! const holosym_real *: step size
+        integer(c_int), value :: steps        !! number of steps
+        integer(c_int), value :: count        !! number of event functions
+        type(c_funptr), value :: g            !! the event functions
+        type(c_ptr), value :: directions      !! const int *: count directions, or NULL
+        type(c_ptr), value :: terminal        !! const int *: count flags, or NULL
+        type(c_funptr), value :: found        !! receives the events, or NULL
+        type(c_ptr), value :: data            !! passed to g and found
+        type(c_ptr), value :: steps_done      !! int *, or NULL
+        type(c_ptr), value :: stopped         !! int *, or NULL
+        character(len=*), parameter :: caller = "holosym_integrate_events"
+        type(c_handle), pointer :: handle
+        type(c_event_set) :: events
+        type(event_t), allocatable :: list(:)
+        type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:), h
+        real(wp), allocatable :: qw(:), pw(:)
+        integer(c_int), pointer :: ints(:), out
+        integer :: done
+        logical :: ended
+        handle => ready_handle(ptr, caller, holosym_integrate_events)
+        if (.not. associated(handle)) return
+        if (.not. arrays_given(handle, caller, q_ptr, p_ptr, holosym_integrate_events)) return
+        if (.not. (c_associated(h_ptr) .and. c_associated(g))) then
+            holosym_integrate_events = refuse(handle, HOLOSYM_INVALID_ARGUMENT, caller // &
+                ": h and g must not be NULL")
+            return
+        end if
+        call c_f_pointer(h_ptr, h)
+        call c_f_procpointer(g, events%fn)
+        events%functions = max(int(count), 0)
+        events%data = data
+        if (c_associated(directions)) then
+            call c_f_pointer(directions, ints, [events%functions])
+            events%directions = ints
+        end if
+        if (c_associated(terminal)) then
+            call c_f_pointer(terminal, ints, [events%functions])
+            events%stops = ints
+        end if
+        q => reals_at(q_ptr, handle%system%n)
+        p => reals_at(p_ptr, handle%system%n)
+        handle%record%code = 0
+        qw = q
+        pw = p
+        call integrate_events(handle%integrator, handle%system, qw, pw, real(h, wp), &
+                              int(steps), events, list, ended, status, steps_done=done)
+        if (done > 0 .or. ended) then
+            q = qw
+            p = pw
+        end if
+        if (c_associated(steps_done)) then
+            call c_f_pointer(steps_done, out)
+            out = int(done, c_int)
+        end if
+        if (c_associated(stopped)) then
+            call c_f_pointer(stopped, out)
+            out = merge(1_c_int, 0_c_int, ended)
+        end if
+        if (c_associated(found)) call pass_events(found, list, data)
+        holosym_integrate_events = finish(handle, status)
+    end function holosym_integrate_events
+
+    !> Each event of `list` to the C callback `found`, in order, until it returns non-zero.
+    subroutine pass_events(found, list, data)
+        type(c_funptr), intent(in) :: found
+        type(event_t), intent(in) :: list(:)
+        type(c_ptr), intent(in) :: data
+        procedure(c_event_found), pointer :: receive
+        real(c_real), allocatable :: q(:), p(:), lambda(:)
+        real(c_real) :: t
+        integer :: j
+        call c_f_procpointer(found, receive)
+        do j = 1, size(list)
+            t = list(j)%t
+            q = list(j)%q
+            p = list(j)%p
+            lambda = list(j)%lambda
+            if (size(lambda) == 0) lambda = [0.0_c_real]
+            if (receive(int(list(j)%index, c_int), int(list(j)%direction, c_int), t, q, p, &
+                        lambda, data) /= 0) exit
+        end do
+    end subroutine pass_events
 
     !> int holosym_dense_output(const holosym_integrator *integrator, holosym_real tau,
     !! holosym_real *q, holosym_real *p, holosym_real *lambda): the last step's q~, p~ and

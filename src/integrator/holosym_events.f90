@@ -112,7 +112,8 @@ contains
     !! them in time order, `stopped` is true when a terminal event ended the run (q, p are
     !! then the state at that event, a step of the scheme; else the state after the last
     !! step). `samples` (>= 1, default 4): parts of each step searched for sign changes.
-    !! Codes: those of `integrate`; HOLOSYM_INVALID_ARGUMENT (count < 1, samples < 1),
+    !! Codes: those of `integrate`; HOLOSYM_INVALID_ARGUMENT (count < 1, samples < 1, a
+    !! direction other than EVENT_ANY, EVENT_RISING, EVENT_FALLING),
     !! HOLOSYM_SIZE_MISMATCH (q or p not of size n),
     !! HOLOSYM_NONFINITE_VALUE (an event function returned NaN or Inf: the run stops after
     !! the step where it did, with the events found before).
@@ -146,6 +147,16 @@ contains
                 ", samples " // int_str(locator%samples))
             return
         end if
+        do k = 1, events%count()
+            select case (events%direction(k))
+            case (EVENT_ANY, EVENT_RISING, EVENT_FALLING)
+            case default
+                call set_status(status, HOLOSYM_INVALID_ARGUMENT, "the direction of event " // &
+                    "function " // int_str(k) // " must be EVENT_ANY (0), EVENT_RISING (1) " // &
+                    "or EVENT_FALLING (-1); got " // int_str(events%direction(k)))
+                return
+            end select
+        end do
         ! The event functions see the start state: its sizes first.
         if (size(q) /= sys%n .or. size(p) /= sys%n) then
             call set_status(status, HOLOSYM_SIZE_MISMATCH, "q and p must have size n = " // &
@@ -203,8 +214,8 @@ contains
             call sampled_values(self, k, self%dense%t_start, tau, q, p, g)
             if (.not. all(is_finite(g))) then
                 call set_status(self%status, HOLOSYM_NONFINITE_VALUE, "event function " // &
-                    int_str(k) // " returned NaN or Inf in the step ending at t = " // &
-                    real_str(t))
+                    int_str(k) // " returned NaN or Inf (or its callback failed) in the " // &
+                    "step ending at t = " // real_str(t))
                 halt = .true.
                 return
             end if

@@ -42,7 +42,7 @@ try:
 except Exception:  # pragma: no cover - not installed as a distribution
     __version__ = "unknown"
 
-__all__ = ["Error", "Model", "Integrator", "Run", "EnsembleResult", "simulate", "ensemble",
+__all__ = ["Error", "Model", "Integrator", "Event", "Run", "EnsembleResult", "simulate", "ensemble",
            "binary128", "binary64", "builtin_models", "PRECISIONS"]
 
 #: The values of the `precision` argument: "quad" (real128, the default) and "double"
@@ -73,6 +73,12 @@ OUTSIDE_DOMAIN = 8
 
 _CODE_NAMES = {value: "HOLOSYM_" + name for name, value in globals().items()
                if name.isupper() and isinstance(value, int) and not name.startswith("_")}
+
+# Directions of the crossings wanted from an event function (Integrator.integrate_events;
+# HOLOSYM_EVENT_* in the header). Not status codes: defined after their table.
+EVENT_ANY = 0
+EVENT_RISING = 1
+EVENT_FALLING = -1
 
 
 class Error(Exception):
@@ -315,6 +321,22 @@ def _orders(M, N, G):
     return M, N, G
 
 
+class Event:
+    """An event located by Integrator.integrate_events: `index` of the function in the
+    list given, `direction` (1: g rose through zero, -1: it fell), its time `t`, the state
+    `q`, `p` and the multipliers `lam` there (floats, or Decimals with exact=True)."""
+
+    __slots__ = ("index", "direction", "t", "q", "p", "lam", "offset")
+
+    def __init__(self, index, direction, t, q, p, lam, offset):
+        self.index, self.direction, self.t = index, direction, t
+        self.q, self.p, self.lam = q, p, lam
+        self.offset = offset  # the time from the run's start, exact (Fraction)
+
+    def __repr__(self):
+        return f"Event(index={self.index}, direction={self.direction}, t={self.t})"
+
+
 class Integrator:
     """Step-by-step integration of a model with the symplectic scheme (M, N, G) (order
     2 min(M, N + 1) when G is large enough; defaults N = M - 1, G = M + 1).
@@ -471,6 +493,89 @@ class Integrator:
             return done.value
         _check(code, self._handle)
         return done.value
+
+    def integrate_events(self, steps, events, h=None, directions=None, terminal=None,
+                         exact=False):
+        """`steps` steps of size h in place, locating the zero crossings of the event
+        functions (docs/events.md); returns (found, stopped).
+
+        events: a list of functions g(t, q, p) -> real (t a float and q, p float64 arrays;
+        with exact=True Decimals with every digit, and g may return a Decimal, Fraction
+        or str: the event times then have the library's precision, which float values of
+        g limit to about 1e-16). directions: per function 0 (any), 1 (g rising through
+        zero) or -1 (falling); terminal: per function, True ends the run at the event.
+        found: a list of Event (index into events, direction, t, q, p, lam), in time
+        order; stopped: a terminal event ended the run, and the state is the event's.
+        An exception raised by g stops the run and propagates; Error for the library's
+        failures (the state is then the last good step's)."""
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
+            raise Error(INVALID_STEP_COUNT, f"steps must be an int, got {steps!r}")
+        events = list(events)
+        count = len(events)
+        buffer, raw = self._h_buffer(h)
+        lib, codec = self._lib, self._codec
+        h_value = codec.to_fraction(raw) if codec.to_decimal(raw).is_finite() else None
+        size = lib.bytes * self.n
+        convert = _decimals if exact else _floats
+        found = []
+
+        def value(k, t_ptr, q_ptr, p_ptr, value_ptr, _data):
+            try:
+                t = t0 + codec.to_fraction(_clib.ctypes.string_at(t_ptr, lib.bytes))
+                t = _fraction_to_decimal(t) if exact else float(t)
+                g = events[k - 1](t, convert(_clib.ctypes.string_at(q_ptr, size), lib),
+                                  convert(_clib.ctypes.string_at(p_ptr, size), lib))
+                g_raw = _real_bytes(g, f"event function {k - 1}", lib)
+                _clib.ctypes.memmove(value_ptr, g_raw, lib.bytes)
+                return 0
+            except BaseException as error:  # re-raised after the C call returns
+                if self._pending is None:
+                    self._pending = error
+                return 1
+
+        def receive(k, direction, t_ptr, q_ptr, p_ptr, lam_ptr, _data):
+            # The library's t counts from the run's start.
+            offset = codec.to_fraction(_clib.ctypes.string_at(t_ptr, lib.bytes))
+            t = t0 + offset
+            found.append(Event(k - 1, direction,
+                               _fraction_to_decimal(t) if exact else float(t),
+                               convert(_clib.ctypes.string_at(q_ptr, size), lib),
+                               convert(_clib.ctypes.string_at(p_ptr, size), lib),
+                               convert(_clib.ctypes.string_at(lam_ptr, lib.bytes * self.m),
+                                       lib), offset))
+            return 0
+
+        def ints(values, what):
+            if values is None:
+                return None
+            values = [int(v) for v in values]
+            if len(values) != count:
+                raise Error(SIZE_MISMATCH, f"{what}: {count} values expected, got "
+                            f"{len(values)}")
+            return (_clib.ctypes.c_int * max(count, 1))(*values)
+
+        direction_array = ints(directions, "directions")
+        terminal_array = ints(terminal, "terminal")
+        g_callback = _clib.EVENT_FUNCTION(value)
+        found_callback = _clib.EVENT_FOUND(receive)
+        done = _clib.ctypes.c_int(0)
+        stopped = _clib.ctypes.c_int(0)
+        t0 = self.t
+        self._pending = None
+        code = lib.integrate_events(
+            self._handle.pointer, self._q.address, self._p.address, buffer.address,
+            int(steps), count, _clib.ctypes.cast(g_callback, _clib.ctypes.c_void_p),
+            direction_array, terminal_array,
+            _clib.ctypes.cast(found_callback, _clib.ctypes.c_void_p), None, done, stopped)
+        if stopped.value:
+            self.t = t0 + found[-1].offset
+        elif done.value > 0:
+            self.t = t0 + done.value * h_value
+        if self._pending is not None:
+            pending, self._pending = self._pending, None
+            raise pending
+        _check(code, self._handle)
+        return found, bool(stopped.value)
 
     def dense_output(self, tau, exact=False):
         """(q~, p~, lambda~) of the last step at tau in [0, 1] (numpy float64 arrays, or

@@ -37,6 +37,12 @@ _int_p = ctypes.POINTER(ctypes.c_int)
 #: The observer of holosym_integrate_p: (handle, step, const real *t, q, p, data) -> int.
 OBSERVER = ctypes.CFUNCTYPE(_int, _p, _int, _p, _p, _p, _p)
 
+#: An event function of holosym_integrate_events: (k, const real *t, q, p, real *value,
+#: data) -> int.
+EVENT_FUNCTION = ctypes.CFUNCTYPE(_int, _int, _p, _p, _p, _p, _p)
+#: Receives a located event: (k, direction, const real *t, q, p, lambda, data) -> int.
+EVENT_FOUND = ctypes.CFUNCTYPE(_int, _int, _int, _p, _p, _p, _p, _p)
+
 NAME_PARAMETER, NAME_COORDINATE, NAME_MOMENTUM = 0, 1, 2
 
 
@@ -85,6 +91,8 @@ class Library:
         self.constraint = declare("holosym_constraint", _int, _p, _p, _p)
         self.plan_accuracy = declare("holosym_plan_accuracy", _int, _p, _p, _p, _p, _p,
                                      _p, _int_p, _p)
+        self.integrate_events = declare("holosym_integrate_events", _int, _p, _p, _p, _p,
+                                        _int, _int, _p, _p, _p, _p, _p, _int_p, _int_p)
 
     def _declare(self, name, restype, *argtypes):
         function = getattr(self.lib, name)
