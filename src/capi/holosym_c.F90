@@ -428,6 +428,16 @@ contains
         end if
     end function arrays_given
 
+    !> *address = value, unless address is NULL (an optional int output of a call).
+    subroutine put_int(address, value)
+        type(c_ptr), intent(in) :: address
+        integer, intent(in) :: value
+        integer(c_int), pointer :: target_int
+        if (.not. c_associated(address)) return
+        call c_f_pointer(address, target_int)
+        target_int = int(value, c_int)
+    end subroutine put_int
+
     !> The `count` reals at a C address that is not NULL.
     function reals_at(address, count) result(values)
         type(c_ptr), intent(in) :: address
@@ -667,7 +677,6 @@ contains
         type(c_ptr), intent(in) :: steps_done      !! int *, or NULL
         type(c_handle), pointer :: handle
         type(holosym_status_t) :: status
-        integer(c_int), pointer :: done
         real(c_real), pointer :: q(:), p(:)
         real(wp), allocatable :: qw(:), pw(:)
         integer :: count
@@ -691,10 +700,7 @@ contains
             q = qw
             p = pw
         end if
-        if (c_associated(steps_done)) then
-            call c_f_pointer(steps_done, done)
-            done = int(count, c_int)
-        end if
+        call put_int(steps_done, count)
         code = finish(handle, status)
     end function run_integrate
 
@@ -732,7 +738,7 @@ contains
         type(holosym_status_t) :: status
         real(c_real), pointer :: q(:), p(:), h
         real(wp), allocatable :: qw(:), pw(:)
-        integer(c_int), pointer :: ints(:), out
+        integer(c_int), pointer :: ints(:)
         integer :: done
         logical :: ended
         handle => ready_handle(ptr, caller, holosym_integrate_events)
@@ -766,14 +772,8 @@ contains
             q = qw
             p = pw
         end if
-        if (c_associated(steps_done)) then
-            call c_f_pointer(steps_done, out)
-            out = int(done, c_int)
-        end if
-        if (c_associated(stopped)) then
-            call c_f_pointer(stopped, out)
-            out = merge(1_c_int, 0_c_int, ended)
-        end if
+        call put_int(steps_done, done)
+        call put_int(stopped, merge(1, 0, ended))
         if (c_associated(found)) call pass_events(found, list, data)
         holosym_integrate_events = finish(handle, status)
     end function holosym_integrate_events
