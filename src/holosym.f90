@@ -26,7 +26,8 @@
 !!   docs/accuracy.md).
 !! - [[integrate_events]], [[event_set]], [[event_t]], `EVENT_ANY`, `EVENT_RISING`,
 !!   `EVENT_FALLING`: a run that locates the zero crossings of functions g(t, q, p) of the
-!!   motion, to the accuracy of the scheme's steps, and may end at one (docs/events.md).
+!!   motion, to the accuracy of the scheme's steps, and may end at one (docs/events.md);
+!!   [[model_events]]: the `event` statements of a model file as such functions.
 !! - [[step_info_t]], [[step_observer]]: diagnostics of one step; the observer that
 !!   `integrate` calls after each step, whose component `dense` ([[step_dense_output]])
 !!   evaluates the step just taken at any time inside it.
@@ -106,8 +107,8 @@ module holosym
     use holosym_newton, only: newton_settings_t
     use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy, accuracy_floor
-    use holosym_events, only: event_set, event_t, integrate_events, EVENT_ANY, EVENT_RISING, &
-        EVENT_FALLING
+    use holosym_events, only: event_set, event_t, integrate_events, model_events, EVENT_ANY, &
+        EVENT_RISING, EVENT_FALLING
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer, &
         integrator_stats_t, step_dense_output
     use holosym_observers, only: trajectory_writer, energy_monitor, trajectory_header
@@ -163,7 +164,8 @@ module holosym
     ! The trade of speed for accuracy as one argument: the plan and the integrator set up.
     public :: accuracy_plan_t, init_for_accuracy, accuracy_floor
     ! Events: zero crossings of functions of the motion, located within the steps.
-    public :: event_set, event_t, integrate_events, EVENT_ANY, EVENT_RISING, EVENT_FALLING
+    public :: event_set, event_t, integrate_events, model_events, EVENT_ANY, EVENT_RISING, &
+        EVENT_FALLING
     public :: trajectory_writer, energy_monitor, trajectory_header
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order

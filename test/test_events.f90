@@ -6,11 +6,13 @@ module test_events
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, real_str, int_str, HOLOSYM_SUCCESS, &
-        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, HOLOSYM_SIZE_MISMATCH
+        HOLOSYM_INVALID_ARGUMENT, HOLOSYM_NONFINITE_VALUE, HOLOSYM_SIZE_MISMATCH, &
+        HOLOSYM_INVALID_MODEL
     use holosym_models, only: planar_pendulum
     use holosym_integrator, only: constrained_integrator
-    use holosym_events, only: event_set, event_t, integrate_events, EVENT_ANY, EVENT_RISING, &
-        EVENT_FALLING
+    use holosym_events, only: event_set, event_t, integrate_events, model_events, EVENT_ANY, &
+        EVENT_RISING, EVENT_FALLING
+    use holosym_formula_model, only: formula_model, model_from_text
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
@@ -50,7 +52,9 @@ contains
             new_test("crossing_times_match_elliptic_reference", elliptic_reference), &
             new_test("direction_and_terminal", direction_and_terminal), &
             new_test("several_in_one_step_in_time_order", time_order), &
-            new_test("bad_input_and_nan", bad_input) &
+            new_test("bad_input_and_nan", bad_input), &
+            new_test("event_statements_of_a_model", model_statements), &
+            new_test("event_statements_refused", model_statements_refused) &
         ]
     end function events_tests
 
@@ -182,6 +186,90 @@ contains
         call check(error, done == 3 .and. size(found) == 1, int_str(done) // " steps, " // &
             int_str(size(found)) // " events before the NaN (expected 3 and 1)")
     end subroutine bad_input
+
+    !> `event` statements of a model file: the planar pendulum's twin with `event
+    !! vertical: x` (any direction) and `event low: y + 0.9 rising` reports, in 96 steps of
+    !! 1/16 with (8, 7, 9), four events in time order: the passages of the vertical at K
+    !! and 3K (within the scheme's accuracy) each followed by y rising through -0.9 (y there
+    !! within the scheme's accuracy); with `stop` on `vertical` the run ends at the first
+    !! passage, with the state there.
+    subroutine model_statements(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(formula_model), target :: model
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        type(event_t), allocatable :: found(:)
+        real(wp) :: q(2), p(2), quarter
+        logical :: stopped
+        integer :: trial, k
+        quarter = elliptic_k(sin(0.5_wp))
+        do trial = 1, 2
+            call model_from_text(pendulum_text() // new_line("a") // "event vertical: x" // &
+                merge(" stop", "     ", trial == 2) // new_line("a") // &
+                "event low: y + 0.9 rising", model, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, status%message)
+            if (allocated(error)) return
+            call check(error, model%event_count() == 2 .and. model%event_name(1) == &
+                "vertical" .and. model%event_direction(2) == EVENT_RISING .and. &
+                (model%event_stops(1) .eqv. trial == 2), "the statements as read")
+            call model%initial_state(q, p, status)
+            call integ%init(model, 8, 7, 9, status)
+            call integrate_events(integ, model, q, p, 1.0_wp / 16, 96, &
+                                  model_events(model), found, stopped, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, status%message)
+            if (allocated(error)) return
+            call check(error, size(found) == merge(1, 4, trial == 2) .and. &
+                (stopped .eqv. trial == 2), int_str(size(found)) // " events, stopped " // &
+                merge("T", "F", stopped))
+            if (allocated(error)) return
+            call check(error, found(1)%index == 1 .and. abs(found(1)%t - quarter) <= &
+                scheme_accuracy, "first passage at " // real_str(found(1)%t))
+            if (trial == 2) exit
+            call check(error, all([(found(k)%index, k = 1, 4)] == [1, 2, 1, 2]) .and. &
+                abs(found(3)%t - 3 * quarter) <= scheme_accuracy .and. &
+                all([(found(k)%direction, k = 2, 4, 2)] == 1) .and. &
+                all([(abs(found(k)%q(2) + 0.9_wp), k = 2, 4, 2)] <= scheme_accuracy), &
+                "the events in order: " // int_str(found(2)%index) // " at " // &
+                real_str(found(2)%t) // ", y = " // real_str(found(2)%q(2)))
+        end do
+        call check(error, all(q == found(1)%q), "the run did not end at the event")
+    end subroutine model_statements
+
+    !> Bad `event` statements: each refused with HOLOSYM_INVALID_MODEL and its position.
+    subroutine model_statements_refused(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        character(len=*), parameter :: bad(*) = [character(len=40) :: &
+            "event : x", "event e x", "event e:", "event e: x sideways", &
+            "event e: 1 + 2", "event e: x rising stop 3"]
+        character(len=*), parameter :: said(*) = [character(len=40) :: &
+            "expected the event's name", "expected ':'", "expected the expression", &
+            "expected rising, falling, any or stop", "depends on no coordinate", &
+            "expected an operator, rising"]
+        type(formula_model) :: model
+        type(holosym_status_t) :: status
+        integer :: k
+        do k = 1, size(bad)
+            call model_from_text(pendulum_text() // new_line("a") // trim(bad(k)), model, &
+                                 status, name="m")
+            call check_status_code(error, status%code, HOLOSYM_INVALID_MODEL, trim(bad(k)))
+            if (allocated(error)) return
+            call check(error, index(status%message, "m:7:") == 1 .and. &
+                index(status%message, trim(said(k))) > 0, trim(bad(k)) // ": " // &
+                status%message)
+        end do
+        call model_from_text(pendulum_text() // new_line("a") // "event e: x" // &
+            new_line("a") // "event e: y", model, status, name="m")
+        call check(error, index(status%message, "a second event 'e'") > 0, status%message)
+    end subroutine model_statements_refused
+
+    !> The planar pendulum's model text (example/models/planar_pendulum.hsm), six lines.
+    function pendulum_text() result(text)
+        character(len=:), allocatable :: text
+        character(len=1), parameter :: nl = new_line("a")
+        text = "# the planar pendulum" // nl // "coordinates x y" // nl // &
+            "momenta px py" // nl // "hamiltonian (px^2 + py^2)/2 + y" // nl // &
+            "constraint x^2 + y^2 - 1" // nl // "initial x = sin(1), y = -cos(1)"
+    end function pendulum_text
 
     !> The planar pendulum from its initial state with (8, 7, 9) and step h (1/16).
     subroutine run(events, steps, found, error, h)

@@ -28,10 +28,11 @@ module holosym_events
         HOLOSYM_SIZE_MISMATCH
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
+    use holosym_formula_model, only: formula_model
     implicit none
     private
 
-    public :: event_set, event_t, integrate_events
+    public :: event_set, event_t, integrate_events, model_events
 
     !> `direction(k)`: crossings of g_k in either direction (default).
     integer, parameter, public :: EVENT_ANY = 0
@@ -88,6 +89,17 @@ module holosym_events
             real(wp), intent(in) :: q(:), p(:) !! state
         end function value_interface
     end interface
+
+    !> The `event` statements of a model file as an `event_set`: `model_events(model)`.
+    !! It points at the model, which must outlive it (and keeps its parameters' values).
+    type, extends(event_set) :: model_events
+        type(formula_model), pointer :: model => null()
+    contains
+        procedure :: count => model_event_count
+        procedure :: value => model_event_value
+        procedure :: direction => model_event_direction
+        procedure :: terminal => model_event_terminal
+    end type model_events
 
     !> The observer of `integrate_events`: finds the events of each step.
     type, extends(step_observer) :: locator_t
@@ -432,5 +444,33 @@ contains
         if (k < 0 .and. self%count() < 0) continue
         not_terminal = .false.
     end function not_terminal
+
+    integer function model_event_count(self)
+        class(model_events), intent(in) :: self
+        model_event_count = self%model%event_count()
+    end function model_event_count
+
+    !> Event k of the model at (q, p) (model events do not depend on t).
+    real(wp) function model_event_value(self, k, t, q, p) result(g)
+        class(model_events), intent(in) :: self
+        integer, intent(in) :: k
+        real(wp), intent(in) :: t, q(:), p(:)
+        real(wp) :: values(self%model%event_count())
+        if (t /= t) continue
+        call self%model%event_values(q, p, values)
+        g = values(k)
+    end function model_event_value
+
+    integer function model_event_direction(self, k)
+        class(model_events), intent(in) :: self
+        integer, intent(in) :: k
+        model_event_direction = self%model%event_direction(k)
+    end function model_event_direction
+
+    logical function model_event_terminal(self, k)
+        class(model_events), intent(in) :: self
+        integer, intent(in) :: k
+        model_event_terminal = self%model%event_stops(k)
+    end function model_event_terminal
 
 end module holosym_events

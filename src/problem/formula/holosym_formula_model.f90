@@ -61,7 +61,7 @@ module holosym_formula_model
         logical, allocatable, private :: assigned(:)
         !> The compiled bindings.
         type(tape_t), private :: h_tape, hq_tape, hp_tape, phi_tape, jac_tape, hess_tape, &
-            phi_hess_tape, mass_tape, initial_tape
+            phi_hess_tape, mass_tape, initial_tape, event_tape
         !> Pattern of Phi (constraint, coordinate), in the order of `jac_tape`'s outputs.
         integer, allocatable, private :: jac_rows(:), jac_cols(:)
         !> Entries of the Hessian of H (variables 1..2n, first <= second).
@@ -116,6 +116,14 @@ module holosym_formula_model
         procedure :: is_separable => model_is_separable
         !> A digest of the model's text, to tell two versions of a file apart.
         procedure :: text_digest => model_text_digest
+        !> The model's `event` statements: how many, the name, direction (-1, 0, 1) and
+        !! `stop` of event k, and the values of all at a state (`holosym_events` turns
+        !! them into an `event_set`: `model_events`).
+        procedure :: event_count => model_event_count
+        procedure :: event_name => model_event_name
+        procedure :: event_direction => model_event_direction
+        procedure :: event_stops => model_event_stops
+        procedure :: event_values => model_event_values
     end type formula_model
 
 contains
@@ -256,6 +264,7 @@ contains
                 where (initial == 0) initial = node_zero
             end if
             call model%initial_tape%build(g, initial, n)
+            call model%event_tape%build(g, d%events, n)
         end associate
     end subroutine derive
 
@@ -844,6 +853,43 @@ contains
         character(len=:), allocatable :: hex
         hex = trim(self%digest)
     end function model_text_digest
+
+    !> Number of `event` statements.
+    pure integer function model_event_count(self)
+        class(formula_model), intent(in) :: self
+        model_event_count = 0
+        if (allocated(self%definition%events)) model_event_count = size(self%definition%events)
+    end function model_event_count
+
+    !> Name of event k (1..event_count).
+    function model_event_name(self, k) result(name)
+        class(formula_model), intent(in) :: self
+        integer, intent(in) :: k
+        character(len=:), allocatable :: name
+        name = self%definition%event_names(k)%text
+    end function model_event_name
+
+    !> Direction of the crossings wanted from event k: -1 falling, 0 any, 1 rising.
+    integer function model_event_direction(self, k)
+        class(formula_model), intent(in) :: self
+        integer, intent(in) :: k
+        model_event_direction = self%definition%event_directions(k)
+    end function model_event_direction
+
+    !> Whether event k ends a run (`stop`).
+    logical function model_event_stops(self, k)
+        class(formula_model), intent(in) :: self
+        integer, intent(in) :: k
+        model_event_stops = self%definition%event_stops(k)
+    end function model_event_stops
+
+    !> The values of every event's expression at (q, p), with the current parameters.
+    subroutine model_event_values(self, q, p, values)
+        class(formula_model), intent(in) :: self
+        real(wp), intent(in) :: q(:), p(:)
+        real(wp), intent(out) :: values(:) !! event_count values
+        call self%event_tape%evaluate(q, p, self%values, values)
+    end subroutine model_event_values
 
     ! ------------------------------------------------------------------ bindings
 

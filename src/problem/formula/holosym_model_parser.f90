@@ -46,7 +46,7 @@ module holosym_model_parser
     !> The statements' keywords.
     character(len=*), parameter :: keywords(*) = [character(len=12) :: "parameters", &
         "parameter", "coordinates", "momenta", "let", "hamiltonian", "constraint", &
-        "initial", "velocity", "velocities"]
+        "initial", "velocity", "velocities", "event"]
     !> The functions and how many arguments each takes (atan also 2: atan(y, x)).
     character(len=*), parameter :: functions(*) = [character(len=5) :: "sqrt", "exp", &
         "log", "sin", "cos", "tan", "atan", "sinh", "cosh", "tanh", "asin", "acos", "atan2"]
@@ -84,6 +84,10 @@ module holosym_model_parser
         logical :: velocities = .false.
         logical :: has_initial = .false.
         integer :: initial_line = 0
+        !> Events: names, expressions, directions (-1, 0, 1), whether each ends a run.
+        type(name_t), allocatable :: event_names(:)
+        integer, allocatable :: events(:), event_directions(:)
+        logical, allocatable :: event_stops(:)
     end type model_definition_t
 
     !> One statement: continuation lines joined, comments removed, and for each character
@@ -134,7 +138,8 @@ contains
         call model%graph%init()
         allocate (model%coordinates(0), model%momenta(0), model%parameters(0), &
                   model%parameter_definitions(0), model%parameter_values(0), &
-                  model%constraints(0), model%constraint_lines(0))
+                  model%constraints(0), model%constraint_lines(0), model%event_names(0), &
+                  model%events(0), model%event_directions(0), model%event_stops(0))
         call init_symbols(parser%symbols)
         call join_statements(lines, parser)
         do k = 1, size(parser%statements)
@@ -285,6 +290,8 @@ contains
             call parse_initial(parser, model, .false.)
         case ("velocity", "velocities")
             call parse_initial(parser, model, .true.)
+        case ("event")
+            call parse_event(parser, model)
         case default
             call fail_at_statement(parser, "unknown statement '" // written // &
                 "'" // suggestion(keyword, keywords) // "; expected " // keyword_list())
@@ -305,8 +312,8 @@ contains
     !> The keywords as a message lists them.
     pure function keyword_list() result(text)
         character(len=:), allocatable :: text
-        text = "parameters, coordinates, momenta, let, hamiltonian, constraint, initial " // &
-            "or velocity"
+        text = "parameters, coordinates, momenta, let, hamiltonian, constraint, initial, " // &
+            "velocity or event"
     end function keyword_list
 
     !> `coordinates NAMES` or `momenta NAMES`.
@@ -477,6 +484,76 @@ contains
         model%constraint_lines = [model%constraint_lines, &
                                   parser%statements(parser%current)%first_line]
     end subroutine parse_constraint
+
+    !> `event NAME: EXPR [rising | falling | any] [stop]`: a function of the state whose
+    !! zero crossings are events (docs/events.md); the direction of the crossings wanted
+    !! (default any) and whether one ends the run.
+    subroutine parse_event(parser, model)
+        type(parser_t), intent(inout) :: parser
+        type(model_definition_t), intent(inout) :: model
+        character(len=:), allocatable :: name
+        integer :: node, direction, line, column, k
+        logical :: stops
+        call expect_name(parser, "the event's name")
+        if (parser%failed) return
+        name = token_text(parser)
+        do k = 1, size(model%event_names)
+            if (model%event_names(k)%text /= name) cycle
+            call fail_token(parser, "a second event '" // name // "'")
+            return
+        end do
+        call next_token(parser)
+        if (parser%failed) return
+        call expect_symbol(parser, ":", "':' after the event's name")
+        if (parser%failed) return
+        call token_position(parser, line, column)
+        if (parser%token == tk_end) then
+            call fail_token(parser, "expected the expression of event '" // name // "'")
+            return
+        end if
+        node = parse_expression(parser, model)
+        if (parser%failed) return
+        call event_options(parser, direction, stops)
+        if (parser%failed) return
+        if (size(model%graph%variables_of(node)) == 0) then
+            call fail_at(parser, line, column, "event '" // name // "' depends on no " // &
+                "coordinate or momentum")
+            return
+        end if
+        model%event_names = [model%event_names, name_t(name)]
+        model%events = [model%events, node]
+        model%event_directions = [model%event_directions, direction]
+        model%event_stops = [model%event_stops, stops]
+    end subroutine parse_event
+
+    !> The words after an event's expression: `rising`, `falling` or `any` (-1, 0, 1 in
+    !! `direction`; default any) and `stop`, then the end of the line.
+    subroutine event_options(parser, direction, stops)
+        type(parser_t), intent(inout) :: parser
+        integer, intent(out) :: direction
+        logical, intent(out) :: stops
+        direction = 0
+        stops = .false.
+        do while (parser%token == tk_name)
+            select case (lower(token_text(parser)))
+            case ("rising")
+                direction = 1
+            case ("falling")
+                direction = -1
+            case ("any")
+                direction = 0
+            case ("stop")
+                stops = .true.
+            case default
+                call fail_token(parser, "expected rising, falling, any or stop")
+                return
+            end select
+            call next_token(parser)
+            if (parser%failed) return
+        end do
+        if (parser%token /= tk_end) call fail_token(parser, "expected an operator, " // &
+            "rising, falling, any, stop or the end of the line")
+    end subroutine event_options
 
     !> `initial NAME = EXPR, ...` (coordinates and momenta) or `velocity NAME = EXPR, ...`
     !! (coordinates: their velocities).
@@ -1212,7 +1289,7 @@ contains
             k = k + 1
             if (text(k:k) == "*") k = k + 1
             parser%token = tk_symbol
-        else if (index("+-*/^(),=", c) > 0) then
+        else if (index("+-*/^(),=:", c) > 0) then
             k = k + 1
             parser%token = tk_symbol
         else
