@@ -16,6 +16,7 @@ module holosym_cli
     use holosym_cli_bench, only: bench_command
     use holosym_cli_extremes, only: extremes_command
     use holosym_cli_ensemble, only: ensemble_command
+    use holosym_cli_poincare, only: poincare_command
     use holosym_task_farm, only: task_farm
     use holosym_cli_figures, only: figures_command
     use holosym_cli_check, only: check_command
@@ -48,6 +49,7 @@ contains
             "  bench      work-precision benchmark against composed RATTLE; speed options", &
             "  extremes   stability at the extremes: long runs, tiny/large steps, high orders", &
             "  ensemble   many trajectories in parallel (threads or MPI ranks), resumable", &
+            "  poincare   the crossings of a section g(q, p) = 0 by orbits (Poincare sections)", &
             "  figures    the data of the figures in docs/figures.md, as CSV", &
             "  check      compare a system's procedures and declarations with each other", &
             "", &
@@ -136,6 +138,8 @@ contains
             call check_command(args, out, err_unit, exit_code)
         case ("ensemble")
             call ensemble_command(args, out, err_unit, exit_code, farm)
+        case ("poincare")
+            call poincare_command(args, out, err_unit, exit_code, farm)
         case ("figures")
             call figures_command(args, out, err_unit, exit_code)
         case default

@@ -31,6 +31,7 @@ module holosym_cli_ensemble
     private
 
     public :: ensemble_config_t, parse_ensemble_options, ensemble_command, ensemble_help
+    public :: workers_text
 
     !> Largest --perturb (trajectories generated; each keeps its state and result).
     integer, parameter :: max_perturb = 1000000

@@ -13,6 +13,8 @@ module holosym_cli_simulate
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
+    use holosym_events, only: event_t, integrate_events, model_events
+    use holosym_formula_model, only: formula_model
     use holosym_manifold, only: manifold_residuals
     use holosym_observers, only: trajectory_header
     use holosym_systems, only: system_source_t, make_source_system
@@ -70,6 +72,8 @@ module holosym_cli_simulate
         real(wp) :: accuracy = 0
         !> Output file; empty for the output unit given to `run_simulate`.
         character(len=:), allocatable :: output
+        !> --events: the file of the model's events (its `event` statements); empty: none.
+        character(len=:), allocatable :: events
         !> True when --help was given (nothing else is then checked).
         logical :: help = .false.
         !> A remark for standard error (e.g. T not a multiple of h); empty if none.
@@ -171,6 +175,10 @@ contains
             "  --every INT    write a row every INT steps, 1..2147483647; the rows at", &
             "                 t = 0 and after the last step are always written [1]", &
             "  --output FILE  write the CSV to FILE instead of standard output", &
+            "  --events FILE  with --model: locate the events of the model's event", &
+            "                 statements and write them to FILE as CSV (event,", &
+            "                 name, direction, t, q, p, lambda); a `stop` event", &
+            "                 ends the run at the event", &
             "  Numbers: magnitudes from 1e-4931 to 1e+4931 (real64 build: 1e-307 to", &
             "  1e+307), or 0; a quotient a/b is checked the same way.", &
             "  --plain        the general scheme (momenta as unknowns) by full Newton with", &
@@ -211,6 +219,7 @@ contains
         integer :: i
 
         config%output = ""
+        config%events = ""
         config%note = ""
         status%code = HOLOSYM_SUCCESS
         status%message = ""
@@ -239,7 +248,8 @@ contains
                 end if
                 config%plain = .true.
             case ("--system", "--M", "--m", "--N", "--n", "--G", "--g", "--h", "--T", "--t", &
-                  "--steps", "--every", "--output", "--links", "--model", "--set", "--accuracy")
+                  "--steps", "--every", "--output", "--links", "--model", "--set", "--accuracy", &
+                  "--events")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
                 call config%source%take(name, value, taken, status)
@@ -271,6 +281,11 @@ contains
         end do
         call config%source%check(status)
         if (.not. status%ok()) return
+        if (len(config%events) > 0 .and. len(config%source%model) == 0) then
+            call fail(status, "option --events writes the events of a model file's " // &
+                "event statements: give --model")
+            return
+        end if
         if (config%accuracy > 0) then
             ! --accuracy chooses the scheme and the step; T is the span it plans for.
             if (len(chosen) > 0 .or. steps_given .or. config%plain) then
@@ -333,6 +348,8 @@ contains
             call parse_integer_in(name, value, 1, huge(1), config%every, status)
         case ("--output")
             config%output = value
+        case ("--events")
+            config%events = value
         end select
     contains
         !> Fail with "option NAME must be BOUND; got VALUE" unless `condition` holds.
@@ -402,7 +419,7 @@ contains
         integer, intent(in) :: err_unit  !! open unit for progress and summary
         type(holosym_status_t), intent(out) :: status  !! outcome
         type(simulate_summary_t), intent(out), optional :: summary !! counts and maxima
-        class(constrained_hamiltonian), allocatable :: sys
+        class(constrained_hamiltonian), allocatable, target :: sys
         type(constrained_integrator) :: integrator
         type(csv_writer) :: writer
         type(step_info_t) :: no_step
@@ -487,6 +504,10 @@ contains
             allocate (no_step%lambda(sys%m, 0:0))
             no_step%lambda = ieee_value(1.0_wp, ieee_quiet_nan)
             call write_initial_row(writer, no_step)
+        else if (len(config%events) > 0) then
+            call run_with_events(config%events, integrator, sys, q, p, h, steps, writer, &
+                                 steps_done, err_unit, status)
+            writer%summary%steps_done = steps_done
         else
             call integrator%integrate(sys, q, p, h, steps, writer, steps_done, status)
             writer%summary%steps_done = steps_done
@@ -513,6 +534,78 @@ contains
         call write_summary(err_unit, writer%summary)
         if (present(summary)) summary = writer%summary
     end subroutine run_simulate
+
+    !> The run with the model's events located (`integrate_events`, the CSV writer as its
+    !! observer), and the events written to `file` as CSV: event, name, direction (1
+    !! rising, -1 falling), t, q1..qn, p1..pn, lambda1..lambdam, one row each in time order.
+    !! A terminal event (`stop`) ends the run there (its row is the last).
+    subroutine run_with_events(file, integrator, sys, q, p, h, steps, writer, steps_done, &
+                               err_unit, status)
+        character(len=*), intent(in) :: file
+        type(constrained_integrator), intent(inout) :: integrator
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(inout) :: q(:), p(:)
+        real(wp), intent(in) :: h
+        integer, intent(in) :: steps, err_unit
+        type(csv_writer), intent(inout) :: writer
+        integer, intent(out) :: steps_done
+        type(holosym_status_t), intent(out) :: status
+        type(event_t), allocatable :: found(:)
+        type(output_t) :: sink
+        type(holosym_status_t) :: closed
+        logical :: stopped
+        integer :: j, i
+        character(len=:), allocatable :: row
+        steps_done = 0
+        select type (sys)
+        type is (formula_model)
+            if (sys%event_count() == 0) then
+                call fail(status, "option --events: the model states no event " // &
+                    "(docs/events.md: event NAME: EXPR [rising|falling|any] [stop])")
+                return
+            end if
+            call open_output(file, sink, status)
+            if (.not. status%ok()) then
+                status%message = "cannot open --events " // status%message(13:)
+                return
+            end if
+            call integrate_events(integrator, sys, q, p, h, steps, model_events(sys), &
+                                  found, stopped, status, steps_done, observer=writer)
+            row = "event,name,direction,t"
+            do i = 1, sys%n
+                row = row // ",q" // int_str(i)
+            end do
+            do i = 1, sys%n
+                row = row // ",p" // int_str(i)
+            end do
+            do i = 1, sys%m
+                row = row // ",lambda" // int_str(i)
+            end do
+            call sink%line(row)
+            do j = 1, size(found)
+                row = int_str(found(j)%index) // "," // sys%event_name(found(j)%index) // &
+                    "," // int_str(found(j)%direction) // "," // csv_real(found(j)%t)
+                do i = 1, sys%n
+                    row = row // "," // csv_real(found(j)%q(i))
+                end do
+                do i = 1, sys%n
+                    row = row // "," // csv_real(found(j)%p(i))
+                end do
+                do i = 1, sys%m
+                    row = row // "," // csv_real(found(j)%lambda(i))
+                end do
+                call sink%line(row)
+            end do
+            call sink%close(closed)
+            if (status%ok() .and. .not. closed%ok()) status = closed
+            row = ""
+            if (stopped) row = " (a terminal event ended the run)"
+            write (err_unit, '(a)') "holosym simulate: " // int_str(size(found)) // &
+                " events written to " // file // row
+        class default
+            call fail(status, "option --events needs a model file (--model)")
+        end select
+    end subroutine run_with_events
 
     !> Summary line(s) of a run on standard error.
     subroutine write_summary(err_unit, summary)

@@ -11,35 +11,6 @@
 !!     passage 2 rising  t =  5.024981748277839534525908534370698 error  6.4E-32
 !!     passage 3 falling t =  8.374969580463065890876514223951161 error  1.1E-31
 !!     at the passages max |x| =  6.0E-36, max ||q|^2 - 1| =  0.0E+00
-module vertical_passage
-    use holosym, only: wp, event_set
-    implicit none
-    private
-    public :: vertical
-
-    !> g = x: the pendulum passes the vertical.
-    type, extends(event_set) :: vertical
-    contains
-        procedure :: count => one
-        procedure :: value => x
-    end type vertical
-
-contains
-
-    integer function one(self)
-        class(vertical), intent(in) :: self
-        one = 1
-    end function one
-
-    real(wp) function x(self, k, t, q, p)
-        class(vertical), intent(in) :: self
-        integer, intent(in) :: k
-        real(wp), intent(in) :: t, q(:), p(:)
-        x = q(1)
-    end function x
-
-end module vertical_passage
-
 program events
     use holosym, only: wp, planar_pendulum, constrained_integrator, holosym_status_t, &
         event_t, integrate_events

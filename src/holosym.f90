@@ -27,7 +27,9 @@
 !! - [[integrate_events]], [[event_set]], [[event_t]], `EVENT_ANY`, `EVENT_RISING`,
 !!   `EVENT_FALLING`: a run that locates the zero crossings of functions g(t, q, p) of the
 !!   motion, to the accuracy of the scheme's steps, and may end at one (docs/events.md);
-!!   [[model_events]]: the `event` statements of a model file as such functions.
+!!   [[model_events]]: the `event` statements of a model file as such functions;
+!!   [[make_section]], [[section_t]]: a surface g(q, p) = 0 stated as an expression of
+!!   the model-file grammar, whose crossings an ensemble records (a Poincare section).
 !! - [[step_info_t]], [[step_observer]]: diagnostics of one step; the observer that
 !!   `integrate` calls after each step, whose component `dense` ([[step_dense_output]])
 !!   evaluates the step just taken at any time inside it.
@@ -109,6 +111,7 @@ module holosym
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy, accuracy_floor
     use holosym_events, only: event_set, event_t, integrate_events, model_events, EVENT_ANY, &
         EVENT_RISING, EVENT_FALLING
+    use holosym_sections, only: section_t, make_section
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer, &
         integrator_stats_t, step_dense_output
     use holosym_observers, only: trajectory_writer, energy_monitor, trajectory_header
@@ -166,6 +169,8 @@ module holosym
     ! Events: zero crossings of functions of the motion, located within the steps.
     public :: event_set, event_t, integrate_events, model_events, EVENT_ANY, EVENT_RISING, &
         EVENT_FALLING
+    ! Sections: the crossings of a surface g(q, p) = 0 (Poincare sections).
+    public :: section_t, make_section
     public :: trajectory_writer, energy_monitor, trajectory_header
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order

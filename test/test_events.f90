@@ -16,7 +16,7 @@ module test_events
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
-    public :: events_tests
+    public :: events_tests, elliptic_k, pendulum_text
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
     !> The scheme's accuracy at (8, 7, 9), h = 1/16 over a few periods (about 1e-32 in

@@ -36,6 +36,7 @@ contains
             new_test("simulate_set_parameter", simulate_set), &
             new_test("simulate_projection_note", simulate_note), &
             new_test("simulate_refuses_bad_models", simulate_refusals), &
+            new_test("simulate_model_events_file", simulate_events), &
             new_test("ensemble_model_as_builtin", ensemble_twin), &
             new_test("tables_model", tables_model)]
     end function formula_cli_tests
@@ -157,6 +158,68 @@ contains
         call check(error, ios == 0 .and. abs(energy - expected) <= 8 * epsilon(1.0_wp), &
             "H0 with m = 2: " // real_str(energy) // ", expected " // real_str(expected))
     end subroutine simulate_set
+
+    !> `simulate --model F --events E` writes the model's events to E: the planar pendulum
+    !! released at 1 rad passes the vertical (x = 0) at K and 3K, K = K(sin(1/2)) to 40
+    !! digits from mpmath's elliptic integral; with `stop` the run ends at the first.
+    !! --events without --model, and a model without events, are refused.
+    subroutine simulate_events(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        real(wp), parameter :: quarter = 1.674993916092613178175302844790253856807_wp
+        character(len=*), parameter :: options = " --M 8 --N 7 --G 9 --h 1/16 --steps 96 " &
+            // "--every 96 --output "
+        type(command_result_t) :: a
+        type(text_line_t), allocatable :: rows(:)
+        character(len=:), allocatable :: file, events, trajectory
+        real(wp) :: t
+        integer :: ios, j, trial
+        file = scratch_path("vertical.hsm")
+        events = scratch_path("vertical_events.csv")
+        trajectory = scratch_path("vertical_rows.csv")
+        do trial = 1, 2
+            call write_lines(file, [character(len=60) :: "coordinates x y", &
+                "momenta px py", "hamiltonian (px^2 + py^2)/2 + y", &
+                "constraint x^2 + y^2 - 1", "initial x = sin(1), y = -cos(1)", &
+                "event vertical: x" // merge(" stop", "     ", trial == 2)])
+            call run(error, "simulate --model " // file // options // trajectory // &
+                " --events " // events, a)
+            if (allocated(error)) return
+            call read_lines(events, rows, ios)
+            call check(error, a%exit_code == 0 .and. ios == 0 .and. &
+                size(rows) == merge(3, 2, trial == 1), "exit " // int_str(a%exit_code) // &
+                ", " // int_str(size(rows)) // " lines in the events file")
+            if (allocated(error)) return
+            call check(error, rows(1)%text == "event,name,direction,t,q1,q2,p1,p2,lambda1", &
+                "header " // rows(1)%text)
+            if (allocated(error)) return
+            do j = 1, size(rows) - 1
+                call check(error, index(rows(j + 1)%text, "1,vertical," // &
+                    trim(merge("-1", "1 ", j == 1)) // ",") == 1, "row " // rows(j + 1)%text)
+                if (allocated(error)) return
+                call field_number(rows(j + 1)%text, 4, t, ios)
+                call check(error, ios == 0 .and. abs(t - (2 * j - 1) * quarter) <= 1e-30_wp, &
+                    "passage " // int_str(j) // " at " // real_str(t))
+                if (allocated(error)) return
+            end do
+            call check(error, any_line_contains(a%err, "holosym simulate: " // &
+                int_str(size(rows) - 1) // " events written to " // events) .and. &
+                (trial == 1 .neqv. any_line_contains(a%err, "a terminal event ended")), &
+                "the summary line on stderr")
+            if (allocated(error)) return
+        end do
+        call run(error, "simulate --system planar --events " // events, a)
+        if (allocated(error)) return
+        call check(error, a%exit_code == 2 .and. any_line_contains(a%err, "option " // &
+            "--events writes the events of a model file's event statements: give --model"), &
+            "--events without --model: exit " // int_str(a%exit_code))
+        if (allocated(error)) return
+        call run(error, "simulate --model example/models/planar_pendulum.hsm --steps 2 " // &
+            "--events " // events, a)
+        if (allocated(error)) return
+        call check(error, a%exit_code == 1 .and. any_line_contains(a%err, "option " // &
+            "--events: the model states no event"), "a model without events: exit " // &
+            int_str(a%exit_code))
+    end subroutine simulate_events
 
     !> A model whose start is off its constraint is projected, and the note says so.
     subroutine simulate_note(error)

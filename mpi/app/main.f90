@@ -1,6 +1,6 @@
-!> `holosym-mpi`: the `ensemble` and `tables` commands of the holosym tool with their tasks
-!! spread over MPI ranks (`mpirun -np P holosym-mpi ensemble ...`); the same options and
-!! the same output files as `holosym`. Rank 0 writes every output; the other ranks discard
+!> `holosym-mpi`: the `ensemble`, `poincare` and `tables` commands of the holosym tool
+!! with their tasks spread over MPI ranks (`mpirun -np P holosym-mpi ensemble ...`); the
+!! same options and the same output files as `holosym`. Rank 0 writes every output; the other ranks discard
 !! their results (`cli_run`'s `quiet`) and their messages go to /dev/null. Other
 !! commands: use `holosym`.
 program holosym_mpi_main
@@ -31,9 +31,10 @@ program holosym_mpi_main
     exit_code = 0
     if (size(args) >= 1) then
         select case (args(1)%text)
-        case ("ensemble", "tables", "help", "-h", "--help")
+        case ("ensemble", "tables", "poincare", "help", "-h", "--help")
         case default
-            write (err_unit, '(a)') "holosym-mpi: runs 'ensemble' and 'tables' on MPI ranks;" &
+            write (err_unit, '(a)') "holosym-mpi: runs 'ensemble', 'poincare' and 'tables' " // &
+                "on MPI ranks;" &
                 // " for '" // args(1)%text // "' use holosym"
             exit_code = 2
         end select

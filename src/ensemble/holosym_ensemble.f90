@@ -28,6 +28,7 @@ module holosym_ensemble
     use holosym_manifold, only: manifold_residuals
     use holosym_projection, only: project_to_manifold
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
+    use holosym_events, only: event_set, event_t, integrate_events
     use holosym_task_farm, only: farm_job, task_farm, openmp_farm
     use holosym_records, only: record_reader_t, put
     implicit none
@@ -66,6 +67,14 @@ module holosym_ensemble
         !> Options of every trajectory's integrator (speed options, Newton settings,
         !! manifold tolerance); copied, then initialised for (M, N, G).
         type(constrained_integrator) :: integrator
+        !> A section (e.g. from `make_section`, or any `event_set`): each trajectory's
+        !! crossings of it, located as `integrate_events` locates events, are returned in
+        !! its result's `crossings` (a Poincare section). Not associated: none. Every
+        !! worker reads it; it must outlive the run.
+        class(event_set), pointer :: section => null()
+        !> With a section: end each trajectory at its `crossing_limit`-th crossing (as at a
+        !! terminal event); 0: run to T.
+        integer :: crossing_limit = 0
     end type ensemble_settings_t
 
     !> The initial states: trajectory k starts from (q(:, k), p(:, k)).
@@ -111,6 +120,9 @@ module holosym_ensemble
         real(wp) :: cpu_seconds = 0
         !> Wall-clock seconds.
         real(wp) :: wall_seconds = 0
+        !> With `settings%section`: its crossings in time order, one column each: t,
+        !! q(1:n), p(1:n) (2n + 1 rows); no columns when it was not crossed.
+        real(wp), allocatable :: crossings(:, :)
         !> Sampled states when `settings%every` > 0, one column per sample:
         !! t, q(1:n), p(1:n), (H - H0)/H0, max|phi| of the step, |Phi H_p| (2n + 4 rows).
         !! Given to `store_samples` on the worker, not kept in `results`.
@@ -248,7 +260,8 @@ contains
     !! (M, N, G); without `settings%project`, that every initial state is on the constraint
     !! manifold. The message names the trajectory (index and id) and the value.
     !! Codes: HOLOSYM_INVALID_DIMENSION, HOLOSYM_SIZE_MISMATCH, HOLOSYM_INVALID_ARGUMENT
-    !! (duplicate id, non-finite value, `every` < 0), HOLOSYM_INVALID_STEP_SIZE,
+    !! (duplicate id, non-finite value, `every` < 0, `crossing_limit` < 0),
+    !! HOLOSYM_INVALID_STEP_SIZE,
     !! HOLOSYM_INVALID_STEP_COUNT, HOLOSYM_INVALID_ORDER, HOLOSYM_OFF_MANIFOLD and the
     !! integrator's other start-state checks.
     subroutine check_ensemble(sys, states, settings, status)
@@ -286,6 +299,9 @@ contains
         else if (settings%every < 0) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "every must be >= 0; got " // &
                 int_str(settings%every))
+        else if (settings%crossing_limit < 0) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "crossing_limit must be >= 0; " &
+                // "got " // int_str(settings%crossing_limit))
         end if
         if (.not. status%ok()) return
         ! Duplicate ids: sort a permutation, compare neighbours.
@@ -452,7 +468,13 @@ contains
                 allocate (monitor%samples(2 * sys%n + 4, result%steps / settings%every + 2))
                 call monitor%take_sample_at(0.0_wp, q, p, 0.0_wp, position, velocity)
             end if
-            call integrator%integrate(sys, q, p, h, result%steps, monitor, steps_done, status)
+            if (associated(settings%section)) then
+                call integrate_crossings(integrator, sys, q, p, h, result%steps, settings, &
+                                         monitor, steps_done, result%crossings, status)
+            else
+                call integrator%integrate(sys, q, p, h, result%steps, monitor, steps_done, &
+                                          status)
+            end if
             result%steps_done = steps_done
             result%max_energy_error = monitor%max_energy_error
             result%max_constraint_residual = monitor%max_constraint_residual
@@ -474,6 +496,34 @@ contains
         call system_clock(clock_end)
         result%wall_seconds = real(clock_end - clock_start, wp) / clock_rate
     end subroutine integrate_member
+
+    !> The run of a trajectory with a section: `integrate_events` with the monitor as its
+    !! observer; the crossings as columns t, q, p.
+    subroutine integrate_crossings(integrator, sys, q, p, h, steps, settings, monitor, &
+                                   steps_done, crossings, status)
+        type(constrained_integrator), intent(inout) :: integrator
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(inout) :: q(:), p(:)
+        real(wp), intent(in) :: h
+        integer, intent(in) :: steps
+        type(ensemble_settings_t), intent(in) :: settings
+        type(member_monitor), intent(inout) :: monitor
+        integer, intent(out) :: steps_done
+        real(wp), allocatable, intent(out) :: crossings(:, :)
+        type(holosym_status_t), intent(out) :: status
+        type(event_t), allocatable :: found(:)
+        logical :: stopped
+        integer :: j, n, limit
+        limit = huge(1)
+        if (settings%crossing_limit > 0) limit = settings%crossing_limit
+        call integrate_events(integrator, sys, q, p, h, steps, settings%section, found, &
+                              stopped, status, steps_done, observer=monitor, limit=limit)
+        n = size(q)
+        allocate (crossings(2 * n + 1, size(found)))
+        do j = 1, size(found)
+            crossings(:, j) = [found(j)%t, found(j)%q, found(j)%p]
+        end do
+    end subroutine integrate_crossings
 
     !> Record the step's diagnostics, and a sample at every `every`-th and the last step.
     subroutine monitor_observe(self, step, t, q, p, info, halt)
@@ -557,6 +607,9 @@ contains
         call put(record, result%newton_iterations)
         call put(record, result%cpu_seconds)
         call put(record, result%wall_seconds)
+        if (.not. allocated(result%crossings)) allocate (result%crossings(0, 0))
+        call put(record, size(result%crossings, 2))
+        call put(record, reshape(result%crossings, [size(result%crossings)]))
     end subroutine ensemble_job_run
 
     !> Unpack the result of trajectory `task` and hand it to the sink.
@@ -566,6 +619,7 @@ contains
         character(len=*), intent(in) :: record     !! from `ensemble_job_run`
         logical, intent(inout) :: halt             !! set by the sink
         type(record_reader_t) :: reader
+        integer :: crossings
         associate (r => self%results(task))
             r%id = reader%integer(record)
             r%code = reader%integer(record)
@@ -580,6 +634,9 @@ contains
             r%newton_iterations = reader%integer64(record)
             r%cpu_seconds = reader%real(record)
             r%wall_seconds = reader%real(record)
+            crossings = reader%integer(record)
+            r%crossings = reshape(reader%reals(record), [2 * size(r%q) + 1, max(0, crossings)], &
+                                  pad=[0.0_wp])
             r%computed = .not. reader%overrun
             if (reader%overrun) then
                 r%code = HOLOSYM_INVALID_ARGUMENT

@@ -111,8 +111,12 @@ module holosym_events
         real(wp), allocatable :: qa(:), pa(:), ga(:) !! the step's start and g there
         type(event_t), allocatable :: found(:)
         integer :: count = 0
+        !> The run ends after this many events (as at a terminal one); huge: no limit.
+        integer :: limit = huge(1)
         logical :: stopped = .false.
         type(holosym_status_t) :: status
+        !> The caller's observer, called after each step (after its events are located).
+        class(step_observer), pointer :: inner => null()
     contains
         procedure :: observe => locate_in_step
     end type locator_t
@@ -124,13 +128,18 @@ contains
     !! them in time order, `stopped` is true when a terminal event ended the run (q, p are
     !! then the state at that event, a step of the scheme; else the state after the last
     !! step). `samples` (>= 1, default 4): parts of each step searched for sign changes.
-    !! Codes: those of `integrate`; HOLOSYM_INVALID_ARGUMENT (count < 1, samples < 1, a
+    !! `observer` (optional) is called after each step as `integrate` calls it (with the
+    !! step's dense output); its halt ends the run as in `integrate` (HOLOSYM_USER_ABORT).
+    !! `limit` (optional, >= 1): the run ends at the limit-th event as at a terminal one
+    !! (`stopped` set, q and p the state there): a Poincare section's count of crossings.
+    !! Codes: those of `integrate`; HOLOSYM_INVALID_ARGUMENT (count < 1, samples < 1,
+    !! limit < 1, a
     !! direction other than EVENT_ANY, EVENT_RISING, EVENT_FALLING),
     !! HOLOSYM_SIZE_MISMATCH (q or p not of size n),
     !! HOLOSYM_NONFINITE_VALUE (an event function returned NaN or Inf: the run stops after
     !! the step where it did, with the events found before).
     subroutine integrate_events(integ, sys, q, p, h, steps, events, found, stopped, status, &
-                                steps_done, start_time, samples)
+                                steps_done, start_time, samples, observer, limit)
         type(constrained_integrator), intent(inout) :: integ !! set up by `init`
         class(constrained_hamiltonian), intent(in), target :: sys !! the system
         real(wp), intent(inout) :: q(:), p(:)  !! start state in, end (or event) state out
@@ -143,6 +152,8 @@ contains
         integer, intent(out), optional :: steps_done !! whole steps completed
         real(wp), intent(in), optional :: start_time !! t of the start state (default 0)
         integer, intent(in), optional :: samples     !! parts of a step searched (>= 1)
+        class(step_observer), intent(inout), target, optional :: observer !! after each step
+        integer, intent(in), optional :: limit       !! end at this many events (>= 1)
         type(locator_t) :: locator
         real(wp) :: t0
         integer :: k, done
@@ -153,10 +164,13 @@ contains
         t0 = 0
         if (present(start_time)) t0 = start_time
         if (present(samples)) locator%samples = samples
-        if (events%count() < 1 .or. locator%samples < 1) then
-            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "events need count >= 1 " // &
-                "and samples >= 1; got count " // int_str(events%count()) // &
-                ", samples " // int_str(locator%samples))
+        if (present(observer)) locator%inner => observer
+        if (present(limit)) locator%limit = limit
+        if (events%count() < 1 .or. locator%samples < 1 .or. locator%limit < 1) then
+            call set_status(status, HOLOSYM_INVALID_ARGUMENT, "events need count >= 1, " // &
+                "samples >= 1 and limit >= 1; got count " // int_str(events%count()) // &
+                ", samples " // int_str(locator%samples) // ", limit " // &
+                int_str(locator%limit))
             return
         end if
         do k = 1, events%count()
@@ -219,7 +233,6 @@ contains
         real(wp) :: tau(0:self%samples), g(0:self%samples)
         type(event_t), allocatable :: here(:)
         integer :: k, i, first
-        if (info%newton_iterations < 0) continue
         allocate (here(0))
         tau = [(real(i, wp) / self%samples, i = 0, self%samples)]
         do k = 1, self%events%count()
@@ -240,6 +253,9 @@ contains
         end do
         call sort_by_time(here)
         first = findloc([(here(i)%terminal, i = 1, size(here))], .true., dim=1)
+        ! The limit-th event of the run ends it as a terminal one does.
+        if (size(here) >= self%limit - self%count .and. &
+            (first == 0 .or. first > self%limit - self%count)) first = self%limit - self%count
         if (first > 0) then
             here = here(1:first)
             self%stopped = .true.
@@ -248,6 +264,10 @@ contains
         call append(self, here)
         self%qa = q
         self%pa = p
+        if (associated(self%inner)) then
+            self%inner%dense = self%dense
+            call self%inner%observe(step, t, q, p, info, halt)
+        end if
     end subroutine locate_in_step
 
     !> g_k at the step's start (kept), its end (q, p) and the dense output's interior

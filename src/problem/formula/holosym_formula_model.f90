@@ -74,6 +74,8 @@ module holosym_formula_model
         logical, private :: separable = .false.
         !> A digest of the model's text (hexadecimal).
         character(len=16), private :: digest = ""
+        !> The model's text, line by line (for `extended`).
+        type(text_line_t), allocatable, private :: lines(:)
     contains
         procedure :: hamiltonian => model_hamiltonian
         procedure :: dh_dq => model_dh_dq
@@ -124,6 +126,10 @@ module holosym_formula_model
         procedure :: event_direction => model_event_direction
         procedure :: event_stops => model_event_stops
         procedure :: event_values => model_event_values
+        !> This model with more statements after its own (e.g. an `event` over its names).
+        procedure :: extended => model_extended
+        !> Lines of the model's text (those of `extended`'s statements follow).
+        procedure :: line_count => model_line_count
     end type formula_model
 
 contains
@@ -168,6 +174,35 @@ contains
         call report(local, status)
     end subroutine model_from_text
 
+    !> This model with the statements of `text` (lines separated by line feeds) read after
+    !! its own, and the parameters set by name carried over: the same system, with e.g. an
+    !! `event` statement over the model's names added. Failures as for `model_from_text`
+    !! (the lines of `text` numbered after the model's); `extended` is then empty.
+    subroutine model_extended(self, text, extended, status)
+        class(formula_model), intent(in) :: self       !! the model
+        character(len=*), intent(in) :: text           !! the statements to add
+        type(formula_model), intent(out) :: extended   !! the model with them
+        type(holosym_status_t), intent(out) :: status  !! outcome
+        type(text_line_t), allocatable :: more(:)
+        integer :: k
+        call split_text(text, more)
+        call build_model([self%lines, more], self%source(), extended, status)
+        if (.not. status%ok()) return
+        do k = 1, size(self%assigned)
+            if (.not. self%assigned(k)) cycle
+            call extended%set_parameter(self%definition%parameters(k)%text, self%values(k), &
+                                        status)
+            if (.not. status%ok()) return
+        end do
+    end subroutine model_extended
+
+    !> Lines of the model's text.
+    pure integer function model_line_count(self) result(lines)
+        class(formula_model), intent(in) :: self
+        lines = 0
+        if (allocated(self%lines)) lines = size(self%lines)
+    end function model_line_count
+
     !> Return `local` through `status`, or stop with its message when `status` is absent.
     subroutine report(local, status)
         type(holosym_status_t), intent(in) :: local
@@ -195,6 +230,7 @@ contains
         model%n = size(model%definition%coordinates)
         model%m = size(model%definition%constraints)
         model%digest = text_digest(lines)
+        model%lines = lines
         allocate (model%assigned(size(model%definition%parameters)))
         model%assigned = .false.
         call evaluate_parameters(model, status)
