@@ -209,8 +209,19 @@ venv:
 
 # Data of every figure from the library through the CLI, then the PNGs, then a check that
 # each PNG was drawn.
+# The Poincare sections (docs/events.md): the double pendulum near a regular and near a
+# chaotic start (crossings of x1 = 0 rising), the spherical pendulum (q2 = 0 rising).
+POINCARE = $(FPM) run $(FPM_FLAGS) -- poincare --quiet --M 4 --h 1/16
+DOUBLE_MODEL = --model example/models/double_pendulum.hsm --section x1 --direction rising
+
 figures: deps include-digest venv
 	$(FPM) run $(FPM_FLAGS) -- figures --out $(FIGURES_DATA) $(FIGURES_ARGS)
+	$(POINCARE) $(DOUBLE_MODEL) --set theta1=0.5 --set theta2=0.3 --T 300 --perturb 6 \
+		--scale 0.05 --output $(FIGURES_DATA)/poincare_double_regular.csv
+	$(POINCARE) $(DOUBLE_MODEL) --set theta1=2 --set theta2=2.5 --T 600 --perturb 2 \
+		--scale 0.05 --output $(FIGURES_DATA)/poincare_double_chaotic.csv
+	$(POINCARE) --system pendulum --section q2 --direction rising --T 200 --perturb 6 \
+		--scale 0.2 --output $(FIGURES_DATA)/poincare_spherical.csv
 	$(VENV)/bin/python tools/plot_figures.py $(FIGURES_DATA) $(FIGURES_PNG)
 	./tools/check_figures.sh $(FIGURES_PNG)
 

@@ -5,7 +5,8 @@
 set -euo pipefail
 dir="${1:?usage: $0 DIR}"
 status=0
-for name in fig1_pendulum fig2_energy fig4_linkage fig5_constraints long_run convergence; do
+for name in fig1_pendulum fig2_energy fig4_linkage fig5_constraints long_run convergence \
+    poincare; do
     file="$dir/$name.png"
     if [ ! -s "$file" ]; then
         echo "check_figures: $file missing or empty" >&2

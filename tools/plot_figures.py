@@ -171,6 +171,37 @@ def convergence(data, out):
     plt.close(fig)
 
 
+def orbits(rows):
+    """The rows of a `holosym poincare` file grouped by orbit, in id order."""
+    grouped = {}
+    for row in rows:
+        grouped.setdefault(int(row["orbit"]), []).append(row)
+    return [grouped[k] for k in sorted(grouped)]
+
+
+def poincare(data, out):
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8))
+    for name, color, label in (("poincare_double_regular.csv", "C0", "near theta = (0.5, 0.3)"),
+                               ("poincare_double_chaotic.csv", "C3", "near theta = (2, 2.5)")):
+        for k, orbit in enumerate(orbits(read(os.path.join(data, name)))):
+            axes[0].plot(column(orbit, "q3"), column(orbit, "p3"), ".", ms=2, color=color,
+                         label=label if k == 0 else None)
+    axes[0].set_xlabel("x2 (= l2 sin theta2)")
+    axes[0].set_ylabel("px2")
+    axes[0].set_title("Double pendulum: crossings of x1 = 0 rising")
+    axes[0].legend(loc="upper right", fontsize=8, markerscale=4)
+    for orbit in orbits(read(os.path.join(data, "poincare_spherical.csv"))):
+        axes[1].plot(column(orbit, "q1"), column(orbit, "p1"), ".", ms=2)
+    axes[1].set_xlabel("x")
+    axes[1].set_ylabel("px")
+    axes[1].set_title("Spherical pendulum: crossings of y = 0 rising")
+    fig.suptitle("holosym poincare, (M, N, G) = (4, 3, 5), h = 1/16: each colour or "
+                 "series one orbit", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "poincare.png"), dpi=120)
+    plt.close(fig)
+
+
 def main():
     if len(sys.argv) != 3:
         print(__doc__, file=sys.stderr)
@@ -180,7 +211,8 @@ def main():
     drawn = []
     for name, draw in (("fig1_pendulum.csv", fig1), ("fig2_energy_M2.csv", fig2),
                        ("fig4_linkage_coarse.csv", fig4), ("fig5_constraints.csv", fig5),
-                       ("long_run.csv", long_run), ("convergence.csv", convergence)):
+                       ("long_run.csv", long_run), ("convergence.csv", convergence),
+                       ("poincare_spherical.csv", poincare)):
         if os.path.exists(os.path.join(data, name)):
             draw(data, out)
             drawn.append(draw.__name__)

@@ -2,7 +2,7 @@
 # Tests of the MPI build: `holosym-mpi` on 1, 2 and 3 ranks writes the same results and
 # sample files as the serial `holosym`, byte for byte; a job killed on a worker rank or on
 # rank 0 keeps its completed rows and --resume completes it to the same file; `tables`
-# cells farmed over ranks give the serial tables.
+# cells and `poincare` orbits farmed over ranks give the serial tables and crossings.
 # Usage: tools/test_mpi.sh HOLOSYM HOLOSYM_MPI   (mpirun runs as root in CI: allowed here)
 set -uo pipefail
 serial=$(realpath "$1")
@@ -85,6 +85,12 @@ tables=(tables --Mmax 2 --Nmax 2 --h 0.5,0.25,0.125 --T 2)
 "$serial" "${tables[@]}" 2> /dev/null | grep -v '^Wall time' > tables.serial
 $mpirun -np 3 "$parallel" "${tables[@]}" 2> /dev/null | grep -v '^Wall time' > tables.mpi
 check "tables_on_3_ranks_equal_serial" cmp tables.serial tables.mpi
+# poincare: the orbits farmed over ranks give the serial crossings file.
+section=(poincare --system pendulum --section "q3 - 0.75" --perturb 6 --scale 0.01 --M 4 \
+    --h 1/8 --T 10 --quiet)
+"$serial" "${section[@]}" --output section.serial 2> /dev/null
+$mpirun -np 3 "$parallel" "${section[@]}" --output section.mpi 2> /dev/null
+check "poincare_on_3_ranks_equal_serial" cmp section.serial section.mpi
 check "other_commands_refused" bash -c "! $mpirun -np 1 '$parallel' simulate 2> refused.err \
     && grep -q 'use holosym' refused.err"
 
