@@ -10,7 +10,7 @@ module holosym_cli_poincare
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, status_code_name, int_str, real_str, &
-        HOLOSYM_SUCCESS
+        numbered_names, HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_events, only: EVENT_ANY, EVENT_RISING, EVENT_FALLING
     use holosym_sections, only: section_t, make_section
@@ -363,14 +363,8 @@ contains
                 return
             end if
         end if
-        row = "orbit,t"
-        do i = 1, n
-            row = row // ",q" // int_str(i)
-        end do
-        do i = 1, n
-            row = row // ",p" // int_str(i)
-        end do
-        call put_line(row)
+        call put_line("orbit,t," // numbered_names("q", n, ",") // "," // &
+                      numbered_names("p", n, ","))
         order = sorted_order([(results(k)%id, k = 1, size(results))])
         total = 0
         failed = 0

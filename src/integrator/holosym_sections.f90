@@ -11,8 +11,8 @@
 !! `integrate_events` or to an ensemble (`ensemble_settings_t%section`).
 module holosym_sections
     use holosym_kinds, only: wp
-    use holosym_status_codes, only: holosym_status_t, set_status, int_str, HOLOSYM_SUCCESS, &
-        HOLOSYM_INVALID_ARGUMENT
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, numbered_names, &
+        HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_formula_model, only: formula_model, model_from_text
     use holosym_events, only: event_set, EVENT_ANY, EVENT_RISING, EVENT_FALLING
@@ -90,16 +90,9 @@ contains
     function variables_text(n) result(text)
         integer, intent(in) :: n
         character(len=:), allocatable :: text
-        integer :: i
-        text = "coordinates"
-        do i = 1, n
-            text = text // " q" // int_str(i)
-        end do
-        text = text // new_line("a") // "momenta"
-        do i = 1, n
-            text = text // " p" // int_str(i)
-        end do
-        text = text // new_line("a") // "hamiltonian 0" // new_line("a")
+        text = "coordinates " // numbered_names("q", n, " ") // new_line("a") // &
+            "momenta " // numbered_names("p", n, " ") // new_line("a") // "hamiltonian 0" // &
+            new_line("a")
     end function variables_text
 
     !> `let q_i = <coordinate i>` (and p_i) for the names q_i, p_i the model does not use.
