@@ -71,8 +71,9 @@ contains
         end do
     end subroutine elliptic_crossings
 
-    !> On the pendulum's model, a section over the model's names (x, px) and the same
-    !! over q1, p1 give the crossings of the built-in twin (to the twins' round-off).
+    !> On the pendulum's model (with an `event` of its own), a section over the model's
+    !! names (x, px) and the same over q1, p1 give the crossings of the built-in twin (to
+    !! the twins' round-off).
     subroutine model_names(error)
         type(test_error_t), allocatable, intent(out) :: error
         type(ensemble_result_t), allocatable :: builtin(:), by_name(:), by_index(:)
@@ -80,7 +81,9 @@ contains
         type(holosym_status_t) :: status
         call run_planar("q1 + p1/10", EVENT_ANY, 0, 1, builtin, error)
         if (allocated(error)) return
-        call model_from_text(pendulum_text(), model, status)
+        ! The model's own event comes before the section's: the section is still its own.
+        call model_from_text(pendulum_text() // new_line("a") // "event low: y + 0.9", &
+                             model, status)
         call check_status_code(error, status%code, HOLOSYM_SUCCESS, status%message)
         if (allocated(error)) return
         call run_system(model, "x + px/10", EVENT_ANY, 0, 1, by_name, error)
@@ -98,6 +101,18 @@ contains
             scheme_accuracy .and. all(by_index(1)%crossings == by_name(1)%crossings), &
             "model and built-in differ by " // &
             real_str(maxval(abs(by_name(1)%crossings - builtin(1)%crossings))))
+        if (allocated(error)) return
+        ! A model's own `let q1` is its q1 (the section uses the model's names alone).
+        call model_from_text(pendulum_text() // new_line("a") // "let q1 = x", model, status)
+        call check_status_code(error, status%code, HOLOSYM_SUCCESS, status%message)
+        if (allocated(error)) return
+        call run_system(model, "q1 + px/10", EVENT_ANY, 0, 1, by_index, error)
+        if (allocated(error)) return
+        call check(error, all(shape(by_index(1)%crossings) == shape(by_name(1)%crossings)), &
+            "a let named q1: " // int_str(size(by_index(1)%crossings, 2)) // " crossings")
+        if (allocated(error)) return
+        call check(error, all(by_index(1)%crossings == by_name(1)%crossings), &
+            "a let named q1: other crossings")
     end subroutine model_names
 
     !> Eight perturbed orbits: the crossings are bit for bit the same on one and on two

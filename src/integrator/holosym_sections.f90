@@ -7,7 +7,7 @@
 !! the system `sys`: over q1..qn and p1..pn for every system, and for a model file's system
 !! (`formula_model`) also over the model's own names (coordinates, momenta, parameters,
 !! `let`s; q_i and p_i stand for the model's i-th coordinate and momentum unless the model
-!! uses those names itself). The section is an `event_set` of one function, to give to
+!! uses those names itself, in which case they are the model's). The section is an `event_set` of one function, to give to
 !! `integrate_events` or to an ensemble (`ensemble_settings_t%section`).
 module holosym_sections
     use holosym_kinds, only: wp
@@ -32,7 +32,7 @@ module holosym_sections
         character(len=:), allocatable :: expression
         !> EVENT_RISING, EVENT_FALLING or EVENT_ANY.
         integer :: wanted = EVENT_ANY
-        !> Holds the compiled expression (its event 1).
+        !> Holds the compiled expression: its last event (after a model's own).
         type(formula_model), private :: model
     contains
         procedure :: count => section_count
@@ -74,6 +74,12 @@ contains
             before = aliases(sys)
             call sys%extended(before // statement_start // section%expression, &
                               section%model, status)
+            if (.not. status%ok() .and. len(before) > 0) then
+                ! A `let` of the model may take a name q_i or p_i: the model's names alone.
+                before = ""
+                call sys%extended(statement_start // section%expression, section%model, &
+                                  status)
+            end if
             lines = sys%line_count() + line_count(before)
         class default
             before = variables_text(sys%n)
@@ -175,9 +181,9 @@ contains
         class(section_t), intent(in) :: self
         integer, intent(in) :: k
         real(wp), intent(in) :: t, q(:), p(:)
-        real(wp) :: values(1)
+        real(wp) :: values(self%model%event_count())
         call self%model%event_values(q, p, values)
-        g = values(1)
+        g = values(size(values))
         if (k < 0 .and. t < 0) continue
     end function section_value
 
