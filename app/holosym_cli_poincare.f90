@@ -10,7 +10,7 @@ module holosym_cli_poincare
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, status_code_name, int_str, real_str, &
-        numbered_names, HOLOSYM_SUCCESS
+        append_numbered, HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_events, only: EVENT_ANY, EVENT_RISING, EVENT_FALLING
     use holosym_sections, only: section_t, make_section
@@ -363,8 +363,11 @@ contains
                 return
             end if
         end if
-        call put_line("orbit,t," // numbered_names("q", n, ",") // "," // &
-                      numbered_names("p", n, ","))
+        row = "orbit,t,"
+        call append_numbered(row, "q", n, ",")
+        row = row // ","
+        call append_numbered(row, "p", n, ",")
+        call put_line(row)
         order = sorted_order([(results(k)%id, k = 1, size(results))])
         total = 0
         failed = 0

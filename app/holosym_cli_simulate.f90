@@ -9,7 +9,7 @@ module holosym_cli_simulate
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, status_code_name, int_str, real_str, &
-        numbered_names, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+        append_numbered, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
@@ -571,9 +571,12 @@ contains
             end if
             call integrate_events(integrator, sys, q, p, h, steps, model_events(sys), &
                                   found, stopped, status, steps_done, observer=writer)
-            row = "event,name,direction,t," // numbered_names("q", sys%n, ",") // "," // &
-                numbered_names("p", sys%n, ",")
-            if (sys%m > 0) row = row // "," // numbered_names("lambda", sys%m, ",")
+            row = "event,name,direction,t,"
+            call append_numbered(row, "q", sys%n, ",")
+            row = row // ","
+            call append_numbered(row, "p", sys%n, ",")
+            if (sys%m > 0) row = row // ","
+            call append_numbered(row, "lambda", sys%m, ",")
             call sink%line(row)
             do j = 1, size(found)
                 row = int_str(found(j)%index) // "," // sys%event_name(found(j)%index) // &

@@ -20,7 +20,7 @@ module holosym_status_codes
 
     public :: holosym_status_t, set_status, status_code_name, code_name_field, int_str, &
         int_len, real_str, real_field, is_finite, is_nan, is_status_code, is_system_fault, &
-        numbered_names, numbered_length
+        append_numbered
 
     !> Success.
     integer, parameter, public :: HOLOSYM_SUCCESS = 0
@@ -243,35 +243,20 @@ contains
         write (text, '(i0)') value
     end function int_str
 
-    !> Length of `numbered_names(prefix, count, separator)`.
-    pure integer function numbered_length(prefix, count, separator) result(length)
-        character(len=*), intent(in) :: prefix, separator
-        integer, intent(in) :: count
-        integer :: i
-        length = max(0, count - 1) * len(separator)
-        do i = 1, count
-            length = length + len(prefix) + int_len(i)
-        end do
-    end function numbered_length
-
-    !> "q1,q2,...,qn": `prefix` numbered 1..count, joined by `separator` ("" for count 0);
-    !! the names of CSV columns and of model variables. A computed length (see `int_str`).
-    pure function numbered_names(prefix, count, separator) result(text)
+    !> Append "q1,q2,...,qn" to `text`: `prefix` numbered 1..count, joined by
+    !! `separator` (nothing for count 0); the names of CSV columns and model variables.
+    pure subroutine append_numbered(text, prefix, count, separator)
+        character(len=:), allocatable, intent(inout) :: text !! grows by the names
         character(len=*), intent(in) :: prefix    !! e.g. "q"
         integer, intent(in) :: count              !! how many
         character(len=*), intent(in) :: separator !! e.g. ","
-        character(len=numbered_length(prefix, count, separator)) :: text
-        integer :: i, at
-        at = 0
+        integer :: i
+        if (.not. allocated(text)) text = ""
         do i = 1, count
-            if (i > 1) then
-                text(at + 1:at + len(separator)) = separator
-                at = at + len(separator)
-            end if
-            text(at + 1:at + len(prefix) + int_len(i)) = prefix // int_str(i)
-            at = at + len(prefix) + int_len(i)
+            if (i > 1) text = text // separator
+            text = text // prefix // int_str(i)
         end do
-    end function numbered_names
+    end subroutine append_numbered
 
     !> `real_str(value)` in 48 characters.
     pure function short_field(value) result(buffer)

@@ -30,7 +30,7 @@ module holosym_ensemble_files
     use holosym_kinds, only: wp
     use holosym_decimal, only: read_decimal, number_ok
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, &
-        is_status_code, numbered_names, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
+        is_status_code, append_numbered, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_ensemble, only: ensemble_states_t, ensemble_result_t, ensemble_sink, &
         sorted_order, samples_failure
     use holosym_text_file, only: text_file_t, text_line_t, file_lock_t, read_text_lines, &
@@ -423,8 +423,11 @@ contains
     pure function result_header(n) result(header)
         integer, intent(in) :: n !! number of coordinates
         character(len=:), allocatable :: header
-        header = "id,code,steps,steps_done," // numbered_names("q", n, ",") // "," // &
-            numbered_names("p", n, ",") // ",max_energy_error,max_constraint_residual,max_velocity_residual," &
+        header = "id,code,steps,steps_done,"
+        call append_numbered(header, "q", n, ",")
+        header = header // ","
+        call append_numbered(header, "p", n, ",")
+        header = header // ",max_energy_error,max_constraint_residual,max_velocity_residual," &
             // "newton_iterations,message"
     end function result_header
 

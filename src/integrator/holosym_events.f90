@@ -1,6 +1,6 @@
 !> category: public module (use holosym)
-!! Events: the times at which functions g_k(t, q, p) of the motion cross zero, located
-!! within each step of `integrate_events` and reported with the state there.
+!! Events are the times at which functions g_k(t, q, p) of the motion cross zero,
+!! located within each step of `integrate_events` and reported with the state there.
 !!
 !! A user extends `event_set` with the number of functions (`count`) and their values
 !! (`value(k, t, q, p)`), and may override `direction(k)` (`EVENT_RISING`: g from

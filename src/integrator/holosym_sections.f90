@@ -1,5 +1,5 @@
 !> category: public module (use holosym)
-!! Sections: a surface g(q, p) = 0 of the state space, stated as an expression in the
+!! A section is a surface g(q, p) = 0 of the state space, stated as an expression in the
 !! grammar of model files, whose crossings by the motion are events (`holosym_events`):
 !! a Poincare section is the set of states where the motion crosses it in one direction.
 !!
@@ -11,7 +11,7 @@
 !! `integrate_events` or to an ensemble (`ensemble_settings_t%section`).
 module holosym_sections
     use holosym_kinds, only: wp
-    use holosym_status_codes, only: holosym_status_t, set_status, int_str, numbered_names, &
+    use holosym_status_codes, only: holosym_status_t, set_status, int_str, append_numbered, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT
     use holosym_problem, only: constrained_hamiltonian
     use holosym_formula_model, only: formula_model, model_from_text
@@ -96,9 +96,11 @@ contains
     function variables_text(n) result(text)
         integer, intent(in) :: n
         character(len=:), allocatable :: text
-        text = "coordinates " // numbered_names("q", n, " ") // new_line("a") // &
-            "momenta " // numbered_names("p", n, " ") // new_line("a") // "hamiltonian 0" // &
-            new_line("a")
+        text = "coordinates "
+        call append_numbered(text, "q", n, " ")
+        text = text // new_line("a") // "momenta "
+        call append_numbered(text, "p", n, " ")
+        text = text // new_line("a") // "hamiltonian 0" // new_line("a")
     end function variables_text
 
     !> `let q_i = <coordinate i>` (and p_i) for the names q_i, p_i the model does not use.
