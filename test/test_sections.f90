@@ -246,8 +246,9 @@ contains
             "the summary line")
     end subroutine cli_poincare
 
-    !> A section never crossed: exit 1 and why; no --section, a bad direction, a bad
-    !! expression: exit 2 with the option named; a model's own names work.
+    !> A section never crossed: exit 1 and why; no --section, a bad direction: exit 2
+    !! with the option named; a bad expression: exit 1 with its column; a model's own
+    !! names work, and --count ends each orbit at that many crossings.
     subroutine cli_refusals(error)
         type(test_error_t), allocatable, intent(out) :: error
         type(command_result_t) :: a
@@ -278,6 +279,11 @@ contains
         call run_holosym("poincare --model " // model // " --section x --direction any " // &
             "--T 6 --M 8 --h 1/16 --quiet", a)
         call check(error, a%exit_code == 0 .and. size(a%out) == 3, "model names: exit " // &
+            int_str(a%exit_code) // ", " // int_str(size(a%out)) // " lines")
+        if (allocated(error)) return
+        call run_holosym("poincare --model " // model // " --section x --direction any " // &
+            "--T 6 --M 8 --h 1/16 --quiet --count 1", a)
+        call check(error, a%exit_code == 0 .and. size(a%out) == 2, "--count 1: exit " // &
             int_str(a%exit_code) // ", " // int_str(size(a%out)) // " lines")
     end subroutine cli_refusals
 
