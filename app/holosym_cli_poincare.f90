@@ -25,7 +25,7 @@ module holosym_cli_poincare
         option_value, parse_integer, parse_integer_in, parse_real, fail, csv_real, &
         join_lines, default_orders, EXIT_OK, EXIT_FAILURE
     use holosym_cli_ensemble, only: workers_text
-    use holosym_output, only: output_t, open_output
+    use holosym_output, only: output_t, open_output, same_file
     implicit none
     private
 
@@ -196,6 +196,9 @@ contains
         else if (config%final_time / config%step_size > real(huge(1), wp)) then
             call fail(status, "options --T and --h: T/h must give at most " // &
                 int_str(huge(1)) // " steps")
+        else if (len(config%states) > 0 .and. len(config%output) > 0) then
+            if (same_file(config%states, config%output)) call fail(status, "options " // &
+                "--states and --output name the same file; give each its own")
         end if
     contains
         subroutine take_value(option, text)

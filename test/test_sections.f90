@@ -253,6 +253,7 @@ contains
         type(test_error_t), allocatable, intent(out) :: error
         type(command_result_t) :: a
         character(len=:), allocatable :: model
+        model = scratch_path("section_model.hsm")
         call run_holosym([character(len=16) :: "poincare", "--system", "planar", &
             "--section", "q2 + 2", "--T", "2"], a)
         call check(error, a%exit_code == 1 .and. any_line_contains(a%err, "the section " // &
@@ -262,6 +263,12 @@ contains
         call run_holosym("poincare --system planar --T 2", a)
         call check(error, a%exit_code == 2 .and. any_line_contains(a%err, &
             "option --section EXPR is required"), "no --section: exit " // int_str(a%exit_code))
+        if (allocated(error)) return
+        call run_holosym("poincare --system planar --section q1 --states " // model // &
+            " --output " // model, a)
+        call check(error, a%exit_code == 2 .and. any_line_contains(a%err, "options " // &
+            "--states and --output name the same file"), "--states = --output: exit " // &
+            int_str(a%exit_code))
         if (allocated(error)) return
         call run_holosym("poincare --system planar --section q1 --direction up", a)
         call check(error, a%exit_code == 2 .and. any_line_contains(a%err, &
