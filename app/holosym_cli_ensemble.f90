@@ -31,7 +31,7 @@ module holosym_cli_ensemble
     private
 
     public :: ensemble_config_t, parse_ensemble_options, ensemble_command, ensemble_help
-    public :: workers_text
+    public :: workers_text, perturb_options_help, system_options_help, take_run_option
 
     !> Largest --perturb (trajectories generated; each keeps its state and result).
     integer, parameter :: max_perturb = 1000000
@@ -88,21 +88,10 @@ contains
             "Initial states (one of):", &
             "  --states FILE   CSV rows id,q1..qn,p1..pn[,h][,T] (optional header naming", &
             "                  these columns; '#' lines ignored); h and T per trajectory", &
-            "  --perturb K     K states around the system's initial state, ids 1..K (K up", &
-            "                  to 1000000): each", &
-            "                  q_i and p_i moved by S u, u uniform in [-1, 1), then projected", &
-            "  --scale S       perturbation size, 0 to 1000                 [1e-3]", &
-            "  --seed N        generator seed                               [1]", &
+            perturb_options_help(), &
             "", &
             "Options:", &
-            "  --system NAME   built-in system                              [pendulum]", &
-            "                  (" // system_choices // ")", &
-            "  --links K       links of --system chain, 1 to " // int_str(max_links) // &
-            "         [" // int_str(default_links) // "]", &
-            "  --model FILE    the system of a model file instead of --system", &
-            "                  (docs/models.md)", &
-            "  --set NAME=X    set parameter NAME of the model to X (repeatable)", &
-            "  --M, --N, --G   the scheme: M 1..30, N 0..30, G N+1..64      [2, M-1, max(M,N)+1]", &
+            system_options_help(), &
             "  --h REAL        step size of rows without their own h        [0.0625]", &
             "  --T REAL        final time of rows without their own T       [10]", &
             "  --accuracy TOL  the max |error| wanted at T, in (0, 1): (M, N, G), h and the", &
@@ -134,6 +123,32 @@ contains
             "  holosym ensemble --system pendulum --perturb 100 --scale 0.01 --T 10 \", &
             "      --output pendulum.csv"])
     end function ensemble_help
+
+    !> The help lines of --perturb, --scale and --seed (ensemble and poincare).
+    pure function perturb_options_help() result(lines)
+        character(len=96) :: lines(5) !! the lines
+        lines = [character(len=96) :: &
+            "  --perturb K     K states around the system's initial state, ids 1..K (K up", &
+            "                  to 1000000): each q_i and p_i moved by S u, u uniform in", &
+            "                  [-1, 1), then projected", &
+            "  --scale S       perturbation size, 0 to 1000                 [1e-3]", &
+            "  --seed N        generator seed                               [1]"]
+    end function perturb_options_help
+
+    !> The help lines of the system and the scheme: --system, --links, --model, --set,
+    !! --M, --N, --G (ensemble and poincare).
+    pure function system_options_help() result(lines)
+        character(len=96) :: lines(7) !! the lines
+        lines = [character(len=96) :: &
+            "  --system NAME   built-in system                              [pendulum]", &
+            "                  (" // system_choices // ")", &
+            "  --links K       links of --system chain, 1 to " // int_str(max_links) // &
+            "         [" // int_str(default_links) // "]", &
+            "  --model FILE    the system of a model file instead of --system", &
+            "                  (docs/models.md)", &
+            "  --set NAME=X    set parameter NAME of the model to X (repeatable)", &
+            "  --M, --N, --G   the scheme: M 1..30, N 0..30, G N+1..64      [2, M-1, max(M,N)+1]"]
+    end function system_options_help
 
     !> Parse the options of `ensemble`. Failure: HOLOSYM_INVALID_ARGUMENT naming the option.
     subroutine parse_ensemble_options(args, config, status)
@@ -186,33 +201,6 @@ contains
                 case ("--accuracy")
                     call parse_real(name, value, config%accuracy, status)
                     call require(config%accuracy > 0 .and. config%accuracy < 1, "in (0, 1)")
-                case ("--M")
-                    call parse_integer_in(name, value, 1, max_order_m, config%order_m, status)
-                case ("--N")
-                    call parse_integer_in(name, value, 0, max_order_n, config%order_n, status)
-                    n_given = .true.
-                case ("--G")
-                    call parse_integer_in(name, value, 1, max_gauss_points, &
-                                          config%gauss_points, status)
-                    g_given = .true.
-                case ("--h")
-                    call parse_real(name, value, config%step_size, status)
-                    call require(config%step_size > 0, "> 0")
-                case ("--T")
-                    call parse_real(name, value, config%final_time, status)
-                    call require(config%final_time >= 0, ">= 0")
-                case ("--states")
-                    config%states = value
-                case ("--perturb")
-                    call parse_integer_in(name, value, 1, max_perturb, config%perturb, status)
-                case ("--scale")
-                    call parse_real(name, value, config%scale, status)
-                    call require(config%scale >= 0 .and. config%scale <= max_scale, &
-                        "in [0, 1000]")
-                case ("--seed")
-                    call parse_integer(name, value, config%seed, status)
-                case ("--output")
-                    config%output = value
                 case ("--timing")
                     config%timing = value
                     timing_given = .true.
@@ -221,8 +209,9 @@ contains
                 case ("--every")
                     call parse_integer_in(name, value, 1, huge(1), config%every, status)
                     every_given = .true.
-                case ("--threads")
-                    call parse_integer_in(name, value, 1, max_threads, config%threads, status)
+                case default
+                    if (.not. taken) call take_run_option(name, value, config, taken, &
+                                                          n_given, g_given, status)
                 end select
                 if (.not. status%ok()) return
             case default
@@ -262,6 +251,58 @@ contains
                 " must be " // bound // "; got '" // value // "'")
         end subroutine require
     end subroutine parse_ensemble_options
+
+    !> Take an option that `ensemble` and `poincare` share into `config` (`taken`; false
+    !! for any other): the scheme (--M, --N, --G; `n_given`, `g_given` set), --h, --T, the
+    !! states (--states, --perturb, --scale, --seed), --output and --threads. Failure:
+    !! HOLOSYM_INVALID_ARGUMENT naming the option and its bound.
+    subroutine take_run_option(name, value, config, taken, n_given, g_given, status)
+        character(len=*), intent(in) :: name, value   !! the option and its value
+        type(ensemble_config_t), intent(inout) :: config !! the settings so far
+        logical, intent(out) :: taken                 !! it was one of these
+        logical, intent(inout) :: n_given, g_given    !! --N, --G seen
+        type(holosym_status_t), intent(inout) :: status !! outcome
+        taken = .true.
+        select case (name)
+        case ("--M")
+            call parse_integer_in(name, value, 1, max_order_m, config%order_m, status)
+        case ("--N")
+            call parse_integer_in(name, value, 0, max_order_n, config%order_n, status)
+            n_given = .true.
+        case ("--G")
+            call parse_integer_in(name, value, 1, max_gauss_points, config%gauss_points, &
+                                  status)
+            g_given = .true.
+        case ("--h")
+            call parse_real(name, value, config%step_size, status)
+            call require(config%step_size > 0, "> 0")
+        case ("--T")
+            call parse_real(name, value, config%final_time, status)
+            call require(config%final_time >= 0, ">= 0")
+        case ("--states")
+            config%states = value
+        case ("--perturb")
+            call parse_integer_in(name, value, 1, max_perturb, config%perturb, status)
+        case ("--scale")
+            call parse_real(name, value, config%scale, status)
+            call require(config%scale >= 0 .and. config%scale <= max_scale, "in [0, 1000]")
+        case ("--seed")
+            call parse_integer(name, value, config%seed, status)
+        case ("--output")
+            config%output = value
+        case ("--threads")
+            call parse_integer_in(name, value, 1, max_threads, config%threads, status)
+        case default
+            taken = .false.
+        end select
+    contains
+        subroutine require(condition, bound)
+            logical, intent(in) :: condition
+            character(len=*), intent(in) :: bound
+            if (status%ok() .and. .not. condition) call fail(status, "option " // name // &
+                " must be " // bound // "; got '" // value // "'")
+        end subroutine require
+    end subroutine take_run_option
 
     !> No two of --output, --timing, --samples and --states may name the same file (the
     !! same path, or the same file under two names: `same_file`). Failure:

@@ -18,44 +18,30 @@ module holosym_cli_poincare
     use holosym_ensemble, only: ensemble_settings_t, ensemble_states_t, ensemble_result_t, &
         run_ensemble, check_ensemble, perturbed_states, sorted_order
     use holosym_ensemble_files, only: read_ensemble_states, seconds_text
-    use holosym_systems, only: system_source_t, make_source_system, system_choices, &
-        default_links, max_links
-    use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
+    use holosym_systems, only: system_source_t, make_source_system
     use holosym_cli_common, only: parsed_command_proceeds, cli_argument_t, split_option, &
-        option_value, parse_integer, parse_integer_in, parse_real, fail, csv_real, &
-        join_lines, default_orders, EXIT_OK, EXIT_FAILURE
-    use holosym_cli_ensemble, only: workers_text
+        option_value, parse_integer_in, fail, csv_real, join_lines, default_orders, EXIT_OK, &
+        EXIT_FAILURE
+    use holosym_cli_ensemble, only: ensemble_config_t, workers_text, perturb_options_help, &
+        system_options_help, take_run_option
     use holosym_output, only: output_t, open_output, same_file
     implicit none
     private
 
     public :: poincare_command, poincare_help
 
-    !> Largest --perturb and --count.
-    integer, parameter :: max_orbits = 1000000
-    !> Largest --threads.
-    integer, parameter :: max_threads = 256
+    !> Largest --count.
+    integer, parameter :: max_count = 1000000
+    !> Default --T: long enough for a section of a pendulum-like system to collect points.
+    real(wp), parameter :: default_span = 100
 
-    !> Options of `holosym poincare`.
+    !> Options of `holosym poincare`: those it shares with `ensemble` (the system, the
+    !! scheme, h, T, the states, the output, threads, --project, --quiet) and the section.
     type :: poincare_config_t
-        type(system_source_t) :: source          !! built-in system or model file
+        type(ensemble_config_t) :: orbits        !! the shared options (T default 100)
         character(len=:), allocatable :: section !! g(q, p)
         integer :: direction = EVENT_RISING      !! crossings wanted
         integer :: count = 0                     !! crossings per orbit (0: up to T)
-        integer :: order_m = 2                   !! M
-        integer :: order_n = 1                   !! N (default M - 1)
-        integer :: gauss_points = 3              !! G (default max(M, N) + 1)
-        real(wp) :: step_size = 0.0625_wp        !! h
-        real(wp) :: final_time = 100.0_wp        !! T
-        character(len=:), allocatable :: states  !! states CSV ("" for none)
-        integer :: perturb = 0                   !! generated states (0: none)
-        real(wp) :: scale = 1.0e-3_wp            !! perturbation size
-        integer :: seed = 1                      !! generator seed
-        character(len=:), allocatable :: output  !! crossings file ("" standard output)
-        integer :: threads = 0                   !! OpenMP threads (0: OMP_NUM_THREADS)
-        logical :: project = .false.             !! project --states rows first
-        logical :: quiet = .false.               !! no start and summary lines
-        logical :: help = .false.                !! --help given
     end type poincare_config_t
 
     interface
@@ -86,20 +72,11 @@ contains
             "", &
             "Orbits (the system's initial state alone, or one of):", &
             "  --states FILE   CSV rows id,q1..qn,p1..pn[,h][,T] as for ensemble", &
-            "  --perturb K     K states around the system's initial state, ids 1..K, each", &
-            "                  q_i and p_i moved by S u, u uniform in [-1, 1), projected", &
-            "  --scale S       perturbation size, 0 to 1000                 [1e-3]", &
-            "  --seed N        generator seed                               [1]", &
+            perturb_options_help(), &
             "  --project       project off-manifold --states rows onto the manifold", &
             "", &
             "Options:", &
-            "  --system NAME   built-in system                              [pendulum]", &
-            "                  (" // system_choices // ")", &
-            "  --links K       links of --system chain, 1 to " // int_str(max_links) // &
-            "         [" // int_str(default_links) // "]", &
-            "  --model FILE    the system of a model file instead of --system", &
-            "  --set NAME=X    set parameter NAME of the model to X (repeatable)", &
-            "  --M, --N, --G   the scheme: M 1..30, N 0..30, G N+1..64      [2, M-1, max(M,N)+1]", &
+            system_options_help(), &
             "  --h REAL        step size                                    [0.0625]", &
             "  --T REAL        final time of each orbit                     [100]", &
             "  --output FILE   the crossings CSV                            [standard output]", &
@@ -127,9 +104,9 @@ contains
         type(holosym_status_t) :: status
         type(openmp_farm) :: threads
         call parse_poincare_options(args, config, status)
-        if (.not. parsed_command_proceeds("poincare", status, config%help, poincare_help(), &
-                                          out, err_unit, exit_code)) return
-        threads%threads = config%threads
+        if (.not. parsed_command_proceeds("poincare", status, config%orbits%help, &
+                                          poincare_help(), out, err_unit, exit_code)) return
+        threads%threads = config%orbits%threads
         if (present(farm)) then
             call run_poincare_command(config, farm, out, err_unit, exit_code)
         else
@@ -146,8 +123,9 @@ contains
         logical :: has_inline, n_given, g_given, taken
         integer :: i
         config%section = ""
-        config%states = ""
-        config%output = ""
+        config%orbits%states = ""
+        config%orbits%output = ""
+        config%orbits%final_time = default_span
         status%code = HOLOSYM_SUCCESS
         status%message = ""
         n_given = .false.
@@ -157,23 +135,25 @@ contains
             call split_option(args(i)%text, name, inline, has_inline)
             select case (name)
             case ("-h", "--help")
-                config%help = .true.
+                config%orbits%help = .true.
                 return
             case ("--project", "--quiet")
                 if (has_inline) then
                     call fail(status, "option " // name // " takes no value")
                     return
                 end if
-                if (name == "--project") config%project = .true.
-                if (name == "--quiet") config%quiet = .true.
+                if (name == "--project") config%orbits%project = .true.
+                if (name == "--quiet") config%orbits%quiet = .true.
             case ("--system", "--model", "--set", "--links", "--M", "--N", "--G", "--h", &
                   "--T", "--states", "--perturb", "--scale", "--seed", "--output", &
                   "--threads", "--section", "--direction", "--count")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
-                call config%source%take(name, value, taken, status)
-                if (.not. status%ok()) return
-                if (.not. taken) call take_value(name, value)
+                call config%orbits%source%take(name, value, taken, status)
+                if (status%ok() .and. .not. taken) call take_section_option(name, value, &
+                                                                            config, status)
+                if (status%ok() .and. .not. taken) call take_run_option(name, value, &
+                    config%orbits, taken, n_given, g_given, status)
                 if (.not. status%ok()) return
             case default
                 call fail(status, "unknown option '" // args(i)%text // "'")
@@ -181,83 +161,61 @@ contains
             end select
             i = i + 1
         end do
-        call config%source%check(status)
+        call config%orbits%source%check(status)
         if (.not. status%ok()) return
-        call default_orders(config%order_m, config%order_n, config%gauss_points, n_given, &
-                            g_given, status)
+        call default_orders(config%orbits%order_m, config%orbits%order_n, &
+                            config%orbits%gauss_points, n_given, g_given, status)
         if (.not. status%ok()) return
-        if (len_trim(config%section) == 0) then
-            call fail(status, "option --section EXPR is required (g(q, p) over q1..qn, " // &
-                "p1..pn, e.g. --section 'q1')")
-        else if (len(config%states) > 0 .and. config%perturb > 0) then
-            call fail(status, "give at most one of --states FILE and --perturb K")
-        else if (.not. (config%final_time > 0)) then
-            call fail(status, "option --T must be > 0")
-        else if (config%final_time / config%step_size > real(huge(1), wp)) then
-            call fail(status, "options --T and --h: T/h must give at most " // &
-                int_str(huge(1)) // " steps")
-        else if (len(config%states) > 0 .and. len(config%output) > 0) then
-            if (same_file(config%states, config%output)) call fail(status, "options " // &
-                "--states and --output name the same file; give each its own")
-        end if
-    contains
-        subroutine take_value(option, text)
-            character(len=*), intent(in) :: option, text
-            select case (option)
-            case ("--section")
-                config%section = text
-            case ("--direction")
-                select case (text)
-                case ("rising")
-                    config%direction = EVENT_RISING
-                case ("falling")
-                    config%direction = EVENT_FALLING
-                case ("any")
-                    config%direction = EVENT_ANY
-                case default
-                    call fail(status, "option --direction must be rising, falling or " // &
-                        "any; got '" // text // "'")
-                end select
-            case ("--count")
-                call parse_integer_in(option, text, 1, max_orbits, config%count, status)
-            case ("--M")
-                call parse_integer_in(option, text, 1, max_order_m, config%order_m, status)
-            case ("--N")
-                call parse_integer_in(option, text, 0, max_order_n, config%order_n, status)
-                n_given = .true.
-            case ("--G")
-                call parse_integer_in(option, text, 1, max_gauss_points, &
-                                      config%gauss_points, status)
-                g_given = .true.
-            case ("--h")
-                call parse_real(option, text, config%step_size, status)
-                call require(config%step_size > 0, "> 0")
-            case ("--T")
-                call parse_real(option, text, config%final_time, status)
-                call require(config%final_time > 0, "> 0")
-            case ("--states")
-                config%states = text
-            case ("--perturb")
-                call parse_integer_in(option, text, 1, max_orbits, config%perturb, status)
-            case ("--scale")
-                call parse_real(option, text, config%scale, status)
-                call require(config%scale >= 0 .and. config%scale <= 1000, "in [0, 1000]")
-            case ("--seed")
-                call parse_integer(option, text, config%seed, status)
-            case ("--output")
-                config%output = text
-            case ("--threads")
-                call parse_integer_in(option, text, 1, max_threads, config%threads, status)
-            end select
-        end subroutine take_value
-
-        subroutine require(condition, bound)
-            logical, intent(in) :: condition
-            character(len=*), intent(in) :: bound
-            if (status%ok() .and. .not. condition) call fail(status, "option " // name // &
-                " must be " // bound // "; got '" // value // "'")
-        end subroutine require
+        call check_poincare_options(config, status)
     end subroutine parse_poincare_options
+
+    !> --section, --direction, --count into `config`.
+    subroutine take_section_option(name, value, config, status)
+        character(len=*), intent(in) :: name, value
+        type(poincare_config_t), intent(inout) :: config
+        type(holosym_status_t), intent(inout) :: status
+        select case (name)
+        case ("--section")
+            config%section = value
+        case ("--direction")
+            select case (value)
+            case ("rising")
+                config%direction = EVENT_RISING
+            case ("falling")
+                config%direction = EVENT_FALLING
+            case ("any")
+                config%direction = EVENT_ANY
+            case default
+                call fail(status, "option --direction must be rising, falling or any; " // &
+                    "got '" // value // "'")
+            end select
+        case ("--count")
+            call parse_integer_in(name, value, 1, max_count, config%count, status)
+        end select
+    end subroutine take_section_option
+
+    !> The options together: a section, at most one source of states, T > 0 and T/h in
+    !! range, --states and --output different files.
+    subroutine check_poincare_options(config, status)
+        type(poincare_config_t), intent(in) :: config
+        type(holosym_status_t), intent(inout) :: status
+        associate (o => config%orbits)
+            if (len_trim(config%section) == 0) then
+                call fail(status, "option --section EXPR is required (g(q, p) over q1..qn, " &
+                    // "p1..pn, e.g. --section 'q1')")
+            else if (len(o%states) > 0 .and. o%perturb > 0) then
+                call fail(status, "give at most one of --states FILE and --perturb K")
+            else if (.not. (o%final_time > 0)) then
+                call fail(status, "option --T must be > 0")
+            else if (o%final_time / o%step_size > real(huge(1), wp)) then
+                call fail(status, "options --T and --h: T/h must give at most " // &
+                    int_str(huge(1)) // " steps")
+            else if (len(o%states) > 0 .and. len(o%output) > 0) then
+                if (same_file(o%states, o%output)) call fail(status, "options --states " // &
+                    "and --output name the same file; give each its own")
+            end if
+        end associate
+    end subroutine check_poincare_options
 
     !> Run a parsed `poincare` command on a farm.
     subroutine run_poincare_command(config, farm, out, err_unit, exit_code)
@@ -279,18 +237,18 @@ contains
         exit_code = EXIT_FAILURE
         collector = farm%is_collector()
         call system_clock(clock_start, clock_rate)
-        call make_source_system(config%source, sys, q0, p0, status, note)
-        if (status%ok() .and. len(note) > 0 .and. collector .and. .not. config%quiet) &
+        call make_source_system(config%orbits%source, sys, q0, p0, status, note)
+        if (status%ok() .and. len(note) > 0 .and. collector .and. .not. config%orbits%quiet) &
             write (err_unit, '(a)') "holosym poincare: note: " // note
         if (status%ok()) call make_section(sys, config%section, config%direction, section, &
                                            status)
         if (status%ok()) call orbit_states(config, q0, p0, sys%n, states, status)
-        settings%order_m = config%order_m
-        settings%order_n = config%order_n
-        settings%gauss_points = config%gauss_points
-        settings%step_size = config%step_size
-        settings%final_time = config%final_time
-        settings%project = config%project .or. config%perturb > 0
+        settings%order_m = config%orbits%order_m
+        settings%order_n = config%orbits%order_n
+        settings%gauss_points = config%orbits%gauss_points
+        settings%step_size = config%orbits%step_size
+        settings%final_time = config%orbits%final_time
+        settings%project = config%orbits%project .or. config%orbits%perturb > 0
         settings%section => section
         settings%crossing_limit = config%count
         if (status%ok()) call check_ensemble(sys, states, settings, status)
@@ -299,13 +257,14 @@ contains
                 status%message
             return
         end if
-        if (collector .and. .not. config%quiet) write (err_unit, '(a)') &
-            "holosym poincare: " // config%source%label() // " (n = " // int_str(sys%n) // &
+        if (collector .and. .not. config%orbits%quiet) write (err_unit, '(a)') &
+            "holosym poincare: " // config%orbits%source%label() // " (n = " // int_str(sys%n) // &
             ", m = " // int_str(sys%m) // "), section " // config%section // " = 0 " // &
             trim(direction_name(config%direction)) // ", " // &
-            plural(size(states%id), "orbit") // " to T = " // real_str(config%final_time) // &
+            plural(size(states%id), "orbit") // " to T = " // &
+            real_str(config%orbits%final_time) // &
             " on " // &
-            workers_text(farm, config%threads)
+            workers_text(farm, config%orbits%threads)
         call run_ensemble(sys, states, settings, results, status, farm=farm)
         if (.not. collector) then
             exit_code = EXIT_OK
@@ -329,11 +288,12 @@ contains
         integer, intent(in) :: n
         type(ensemble_states_t), intent(out) :: states
         type(holosym_status_t), intent(out) :: status
-        if (config%perturb > 0) then
-            call perturbed_states(q0, p0, config%perturb, config%scale, config%seed, &
+        if (config%orbits%perturb > 0) then
+            call perturbed_states(q0, p0, config%orbits%perturb, config%orbits%scale, &
+                                  config%orbits%seed, &
                                   states, status)
-        else if (len(config%states) > 0) then
-            call read_ensemble_states(config%states, n, states, status)
+        else if (len(config%orbits%states) > 0) then
+            call read_ensemble_states(config%orbits%states, n, states, status)
         else
             states%id = [1]
             states%q = reshape(q0, [n, 1])
@@ -359,8 +319,8 @@ contains
         character(len=:), allocatable :: row
         integer :: i, j, k, total, failed, silent
         exit_code = EXIT_FAILURE
-        if (len(config%output) > 0) then
-            call open_output(config%output, file, status)
+        if (len(config%orbits%output) > 0) then
+            call open_output(config%orbits%output, file, status)
             if (.not. status%ok()) then
                 write (err_unit, '(a)') "holosym poincare: error: " // status%message
                 return
@@ -395,7 +355,7 @@ contains
                 end if
             end associate
         end do
-        if (len(config%output) > 0) then
+        if (len(config%orbits%output) > 0) then
             call file%close(status)
             if (.not. status%ok()) then
                 write (err_unit, '(a)') "holosym poincare: error: " // status%message
@@ -406,11 +366,11 @@ contains
             write (err_unit, '(a)') "holosym poincare: error: the section " // &
                 config%section // " = 0 was not crossed " // &
                 trim(direction_name(config%direction)) // " by any orbit up to T = " // &
-                real_str(config%final_time) // " (check the expression, the direction " // &
+                real_str(config%orbits%final_time) // " (check the expression, the direction " // &
                 "and T)"
             return
         end if
-        if (.not. config%quiet) write (err_unit, '(a)') "holosym poincare: " // &
+        if (.not. config%orbits%quiet) write (err_unit, '(a)') "holosym poincare: " // &
             plural(total, "crossing") // " of " // plural(size(results), "orbit") // " (" // &
             int_str(silent) // " without a crossing, " // int_str(failed) // " failed) in " &
             // seconds_text(seconds, '(f0.2)') // " s"
@@ -418,7 +378,7 @@ contains
     contains
         subroutine put_line(text)
             character(len=*), intent(in) :: text
-            if (len(config%output) > 0) then
+            if (len(config%orbits%output) > 0) then
                 call file%line(text)
             else
                 call out%line(text)
