@@ -19,8 +19,8 @@
 !!   declarations (constant diagonal mass matrix, sparsity) are optional.
 !!   [[difference_hessian]], [[difference_constraint_hessian]]: the default second
 !!   derivatives (central differences).
-!! - [[constrained_integrator]]: `init`, `step`, `integrate`, `dense_output`, the settings
-!!   and the work counters `stats` ([[integrator_stats_t]]).
+!! - [[constrained_integrator]]: `init`, `step`, `integrate`, `step_tangent`,
+!!   `dense_output`, the settings and the work counters `stats` ([[integrator_stats_t]]).
 !! - [[init_for_accuracy]], [[accuracy_plan_t]], [[accuracy_floor]]: the integrator set up
 !!   for a requested error at time T ((M, N, G), h and the Newton tolerance from a pilot;
 !!   docs/accuracy.md).
@@ -49,6 +49,8 @@
 !!   (docs/status-codes.md).
 !! - [[project_to_manifold]], [[projection_report_t]],
 !!   `projection_max_iterations_default`: moves a nearby state onto the manifold.
+!! - [[project_tangent]], [[tangent_residual]], `tangent_tolerance`: the tangent space of
+!!   the manifold at a state, where `step_tangent` takes its vectors (docs/events.md).
 !! - [[manifold_residuals]], [[full_rank_constraints]], `manifold_tolerance_default`:
 !!   the constraint residuals of a state; the rank test of Phi.
 !! - [[spherical_pendulum]], [[spring_linkage]], [[planar_pendulum]],
@@ -96,6 +98,7 @@ module holosym
         difference_constraint_hessian
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, &
         full_rank_constraints
+    use holosym_tangent_space, only: project_tangent, tangent_residual, tangent_tolerance
     use holosym_projection, only: project_to_manifold, projection_report_t, &
         projection_max_iterations_default
     use holosym_initial_states, only: state_from_velocities
@@ -148,6 +151,7 @@ module holosym
     public :: constrained_hamiltonian, difference_hessian, difference_constraint_hessian
     public :: manifold_residuals, manifold_tolerance_default, full_rank_constraints
     public :: project_to_manifold, projection_report_t, projection_max_iterations_default
+    public :: project_tangent, tangent_residual, tangent_tolerance
     public :: state_from_velocities
     ! A system from formulas: the model file, read, differentiated and compiled.
     public :: formula_model, load_model, model_from_text

@@ -65,8 +65,9 @@
 !! the modes of the scheme and of Newton's workspace), `holosym_integrator_solve.f90` (one
 !! step: its Newton solve by the general or the reduced scheme, with retries and end-state
 !! checks, and its acceptance), `holosym_integrator_roots.f90` (the check of a suspicious
-!! root against two steps of h/2) and `holosym_integrator_diagnosis.f90` (the cause of a
-!! failed step, the resolution limit of a state).
+!! root against two steps of h/2), `holosym_integrator_diagnosis.f90` (the cause of a
+!! failed step, the resolution limit of a state) and `holosym_integrator_tangent.f90`
+!! (`step_tangent`: the derivative of the step map).
 module holosym_integrator
     use, intrinsic :: iso_fortran_env, only: int64
     use holosym_kinds, only: wp, wp_is_double
@@ -285,6 +286,9 @@ module holosym_integrator
         ! Why the Newton matrix of the failing attempts was singular, when the constraints
         ! are dependent at a displacement node of the iterate ("" otherwise).
         character(len=:), allocatable, private :: dependent_nodes
+        ! The general scheme of `step_tangent`, set up at its first call after `init`.
+        type(discrete_scheme), private :: tangent_scheme
+        logical, private :: tangent_ready = .false.
     contains
         !> Set up for a system and (M, N, G).
         procedure :: init => integrator_init
@@ -292,6 +296,8 @@ module holosym_integrator
         procedure :: step => integrator_step
         !> Many steps of size h, in place, with an optional observer.
         procedure :: integrate => integrator_integrate
+        !> One step, and the step map's derivative applied to tangent vectors, in place.
+        procedure :: step_tangent => integrator_step_tangent
         !> q~, p~, lambda~ of the last step at tau in [0, 1].
         procedure :: dense_output => integrator_dense_output
         !> Diagnostics of the last successful step.
@@ -481,6 +487,34 @@ module holosym_integrator
             real(wp), intent(in) :: tau !! fraction of the step
             real(wp), intent(out) :: q(:), p(:), lambda(:) !! q~, p~, lambda~ at tau
         end subroutine path_dense
+
+        ! The tangent map: holosym_integrator_tangent.f90.
+
+        !> One step of size h (as `step`) and the derivative of the step map, restricted to
+        !! the constraint manifold, applied to the tangent vectors (dq(:, k), dp(:, k)) at
+        !! the start state: on success q, p hold the end state and dq, dp the images of the
+        !! vectors there. The derivative comes from the implicit-function theorem on the
+        !! general scheme's equations at the step's solution (whichever path solved it):
+        !! one solve per vector with the real64 factors of the Newton matrix, refined in
+        !! working precision, so it is exact to round-off when the system's second
+        !! derivatives are (its `hessian` and `constraint_hessian`; the difference defaults
+        !! give about half the digits). It maps the tangent space into the tangent space
+        !! and is symplectic there. Codes: those of `step`; HOLOSYM_SIZE_MISMATCH (dq, dp
+        !! not n x k alike), HOLOSYM_INVALID_ARGUMENT (a non-finite entry),
+        !! HOLOSYM_OFF_MANIFOLD (a vector with `tangent_residual` above
+        !! `tangent_tolerance`: `project_tangent` projects it), HOLOSYM_SINGULAR_MATRIX (no
+        !! tangent map at this solution). On failure q, p, dq and dp are unchanged.
+        module subroutine integrator_step_tangent(self, sys, q, p, h, dq, dp, info, status)
+            class(constrained_integrator), intent(inout) :: self !! the integrator
+            class(constrained_hamiltonian), intent(in), target :: sys !! the system
+            real(wp), intent(inout) :: q(:)     !! coordinates (n): q_a in, q_b out
+            real(wp), intent(inout) :: p(:)     !! momenta (n): p_a in, p_b out
+            real(wp), intent(in) :: h           !! step size > 0
+            real(wp), intent(inout) :: dq(:, :) !! n x k: tangent vectors' q parts
+            real(wp), intent(inout) :: dp(:, :) !! n x k: tangent vectors' p parts
+            type(step_info_t), intent(out), optional :: info !! diagnostics of the step
+            type(holosym_status_t), intent(out), optional :: status !! outcome
+        end subroutine integrator_step_tangent
     end interface
 contains
 
@@ -521,6 +555,7 @@ contains
             return
         end if
         self%scheme = scheme
+        self%tangent_ready = .false.
         self%ready = .true.
         self%system_checked = .false.
         self%have_last = .false.

@@ -22,7 +22,9 @@ module holosym_scheme
     use holosym_float_bits, only: all_below_exponent
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, &
         HOLOSYM_SUCCESS, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_DIMENSION, &
-        HOLOSYM_NONFINITE_VALUE, HOLOSYM_NEWTON_DIVERGED
+        HOLOSYM_NONFINITE_VALUE, HOLOSYM_NEWTON_DIVERGED, HOLOSYM_SINGULAR_MATRIX, &
+        HOLOSYM_NOT_INITIALIZED, real_str
+    use holosym_linalg, only: lu_factor_dp, lu_solve_dp
     use holosym_quadrature, only: gauss_legendre, gauss_lobatto
     use holosym_lagrange, only: lagrange_values, lagrange_matrices
     use holosym_problem, only: constrained_hamiltonian, difference_hessian, refusal_pending, &
@@ -31,6 +33,7 @@ module holosym_scheme
     use holosym_newton, only: all_finite, all_finite_matrix
     use holosym_step_scheme, only: step_scheme, scheme_counters_t
     use holosym_scheme_layout, only: scheme_layout_t, unknown_count, max_block_order
+    use holosym_scheme_linearised, only: linearised_inputs_t, linearised_residual
     ! The kernels of both kinds, under generic names (the type of the first argument
     ! selects the instance): working precision and real64.
     use holosym_scheme_kernels_wp, only: scheme_tables_wp, step_constants_wp, &
@@ -64,6 +67,18 @@ module holosym_scheme
     !! over the nodes and Gauss points (a few thousand terms) stay below huge(1.0_dp),
     !! 2^1024. Beyond it the residual is evaluated in working precision.
     integer, parameter :: lowered_exponent = 492
+
+    !> The tangent map's solve (`refined_solve`) refines a solution with real64 factors at
+    !! most this many times: each refinement gains the digits of real64 less those the
+    !! condition number takes, so a matrix that real64 factors can handle at all (cond
+    !! below about 1e12) reaches real128 round-off in under five.
+    integer, parameter :: max_refinements = 10
+    !> A refinement that does not shrink the correction by at least this factor has reached
+    !! the round-off of the product (or diverges): the refinement stops.
+    real(wp), parameter :: refinement_contraction = 0.5_wp
+    !> A refined solution whose last correction is above this (relative) is refused: the
+    !! tangent would hold fewer than half the working digits.
+    real(wp), parameter :: refined_accuracy = sqrt(epsilon(1.0_wp))
 
     !> Jacobian assembled from the second derivatives of H and phi (default).
     integer, parameter, public :: JACOBIAN_ASSEMBLED = 1
@@ -163,6 +178,12 @@ module holosym_scheme
         ! points: n x n x 3.
         integer, allocatable, private :: patterns(:, :, :)
         real(wp), allocatable, private :: x_work(:), f_plus(:), f_minus(:) ! nx
+        ! The step equations linearised at a solution (`linearise`): the values their
+        ! derivative needs and the real64 LU factors of the Newton matrix there.
+        type(linearised_inputs_t), private :: lin
+        real(dp), allocatable, private :: lin_factors(:, :)
+        integer, allocatable, private :: lin_pivots(:)
+        logical, private :: linearised = .false.
     contains
         !> Set up the scheme for (M, N, G) and sizes (n, m).
         procedure :: init => scheme_init
@@ -200,6 +221,14 @@ module holosym_scheme
         procedure :: node => scheme_node
         !> Distance of the momentum polynomial's ends from the step's end momenta.
         procedure :: momentum_jump => scheme_momentum_jump
+        !> The unknowns of the step bound by `set_step` from its node values.
+        procedure :: unknowns_from_nodes => scheme_unknowns_from_nodes
+        !> Linearise the step equations at a solution (for `tangent`).
+        procedure :: linearise => scheme_linearise
+        !> The derivative of the step map along a direction of the start state.
+        procedure :: tangent => scheme_tangent
+        !> The Newton matrix at the linearised solution times a vector of unknowns.
+        procedure :: linearised_product => scheme_linearised_product
     end type discrete_scheme
 
 contains
@@ -368,6 +397,9 @@ contains
         if (allocated(self%end_hqq)) deallocate (self%end_hqq, self%patterns, self%x_work, &
             self%f_plus, self%f_minus)
         self%low = empty_lowered
+        self%lin = linearised_inputs_t()
+        if (allocated(self%lin_factors)) deallocate (self%lin_factors, self%lin_pivots)
+        self%linearised = .false.
         self%cache_valid = .false.
     end subroutine release
 
@@ -762,6 +794,15 @@ contains
         type(holosym_status_t), intent(out) :: status
         call jacobian_inputs(self, x, status)
         if (.not. status%ok()) return
+        call lowered_assembly(self, x, jac)
+    end subroutine assemble_jacobian_lowered
+
+    !> The Jacobian at x in real64 arithmetic from the second derivatives that
+    !! `jacobian_inputs` took at x.
+    subroutine lowered_assembly(self, x, jac)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:)
+        real(dp), intent(out) :: jac(:, :)
         associate (low => self%low)
             low%hess%hqq = real(self%hess%hqq, dp)
             low%hess%hqp = real(self%hess%hqp, dp)
@@ -781,7 +822,7 @@ contains
             call assemble_blocks(low%tab, low%hess, self%patterns, self%layout, low%step%h, &
                                  low%f, low%phi_jac, jac)
         end associate
-    end subroutine assemble_jacobian_lowered
+    end subroutine lowered_assembly
 
     !> What the assembly needs at x: the evaluation (a lowered one suffices: the Jacobian
     !! only computes corrections), the second derivatives at the Gauss points and nodes,
@@ -1227,5 +1268,216 @@ contains
             q = q + x(base + 1:base + self%n)
         end if
     end subroutine scheme_solution_node
+
+    !> The unknowns x of the step bound by `set_step` whose polynomials take the values
+    !! q_i (i = 1..M, displacement nodes), p_j (j = 0..N, momentum nodes) and lambda_i
+    !! (i = 0..M): the inverse of `dense` at the nodes (`disp_nodes`, `mom_nodes`), for a
+    !! step another scheme solved.
+    pure subroutine scheme_unknowns_from_nodes(self, q, p, lambda, x)
+        class(discrete_scheme), intent(in) :: self
+        real(wp), intent(in) :: q(:, 0:)      !! n x (0:M) q~ at the displacement nodes
+        real(wp), intent(in) :: p(:, 0:)      !! n x (0:N) p~ at the momentum nodes
+        real(wp), intent(in) :: lambda(:, 0:) !! m x (0:M) lambda~ at the displacement nodes
+        real(wp), intent(out) :: x(:)         !! unknowns (nx)
+        integer :: i, base
+        associate (lay => self%layout, n => self%n, m => self%m)
+            do i = 1, self%order_m
+                base = lay%z_at(i)
+                x(base + 1:base + n) = q(:, i) - self%step%qa
+            end do
+            do i = 0, self%order_n
+                base = lay%w_at(i)
+                x(base + 1:base + n) = p(:, i) - self%step%pa
+            end do
+            do i = 0, self%order_m
+                base = lay%mu_at(i)
+                x(base + 1:base + m) = self%step%h * lambda(:, i)
+            end do
+        end associate
+    end subroutine scheme_unknowns_from_nodes
+
+    !> Linearise the step equations at their solution x for the step bound by `set_step`:
+    !! an evaluation in working precision, the second derivatives of H at the Gauss points
+    !! and the step end and of phi at every node (q_0 = q_a too), and the real64 LU factors
+    !! of the Newton matrix, for `tangent`. HOLOSYM_SINGULAR_MATRIX when the Newton matrix
+    !! is singular at x; HOLOSYM_NONFINITE_VALUE as the Jacobian reports it.
+    subroutine scheme_linearise(self, x, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: x(:) !! solution of the step bound by set_step
+        type(holosym_status_t), intent(out) :: status !! outcome
+        integer :: info, i
+        self%linearised = .false.
+        ! Exact first: the second derivatives must be taken at the exact Gauss points.
+        call evaluate(self, x, status)
+        if (status%ok()) call jacobian_inputs(self, x, status)
+        if (.not. status%ok()) return
+        associate (s => self%lin)
+            s = linearised_inputs_t(h=self%step%h, b=self%b, a=self%a, c=self%c, &
+                                    w=self%gauss_weights, lobatto_weights=self%lobatto_weights, &
+                                    hqq=self%hess%hqq, hqp=self%hess%hqp, hpp=self%hess%hpp, &
+                                    phi_jac=self%phi_jac)
+            allocate (s%phi_hess(self%n, self%n, self%m, 0:self%order_m), &
+                      s%mu(self%m, 0:self%order_m))
+            do i = 0, self%order_m
+                s%mu(:, i) = x(self%layout%mu_at(i) + 1:self%layout%mu_at(i) + self%m)
+            end do
+            if (self%m > 0) then
+                s%phi_hess(:, :, :, 1:) = self%hess%phi_hess
+                call start_constraint_hessian(self, s%phi_hess(:, :, :, 0), status)
+                if (.not. status%ok()) return
+                s%velocity = self%hess%velocity
+                s%end_hqp = self%hess%end_hqp
+                s%end_hpp = self%hess%end_hpp
+            end if
+        end associate
+        if (.not. allocated(self%lin_factors)) &
+            allocate (self%lin_factors(self%nx, self%nx), self%lin_pivots(self%nx))
+        call lowered_assembly(self, x, self%lin_factors)
+        call lu_factor_dp(self%lin_factors, self%lin_pivots, info)
+        if (info /= 0) then
+            call set_status(status, HOLOSYM_SINGULAR_MATRIX, "the Newton matrix of the " // &
+                "step is singular at its solution: no tangent map")
+            return
+        end if
+        self%linearised = .true.
+    end subroutine scheme_linearise
+
+    !> Second derivatives of phi at q_0 = q_a (the Newton matrix does not need them: q_a
+    !! is no unknown), from the same source as the other nodes'.
+    subroutine start_constraint_hessian(self, hessian, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(out) :: hessian(:, :, :)
+        type(holosym_status_t), intent(inout) :: status
+        integer :: l
+        self%counters%hessians = self%counters%hessians + 1
+        if (self%hessian_mode == HESSIANS_DIFFERENCES) then
+            call difference_constraint_hessian(self%sys, self%step%qa, hessian)
+        else
+            call self%sys%constraint_hessian(self%step%qa, hessian)
+        end if
+        do l = 1, self%m
+            if (.not. all_finite_matrix(hessian(:, :, l))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "second derivatives of " // &
+                    "phi are not finite at the step start")
+                return
+            end if
+        end do
+    end subroutine start_constraint_hessian
+
+    !> The derivative (dq_b, dp_b) of the step map (q_a, p_a) -> (q_b, p_b) along
+    !! (dq_a, dp_a), at the solution `linearise` took: by the implicit-function theorem on
+    !! the step equations F(x; q_a, p_a) = 0, dx = -F_x^-1 (F_qa dq_a + F_pa dp_a), one
+    !! solve with the Newton matrix's factors, refined in working precision.
+    !! HOLOSYM_SINGULAR_MATRIX when the refinement does not converge (a Newton matrix too
+    !! ill-conditioned for real64 factors); HOLOSYM_NOT_INITIALIZED before `linearise`.
+    subroutine scheme_tangent(self, dqa, dpa, dqb, dpb, status)
+        class(discrete_scheme), intent(inout) :: self
+        real(wp), intent(in) :: dqa(:)  !! direction of q_a (n)
+        real(wp), intent(in) :: dpa(:)  !! direction of p_a (n)
+        real(wp), intent(out) :: dqb(:) !! derivative of q_b (n)
+        real(wp), intent(out) :: dpb(:) !! derivative of p_b (n)
+        type(holosym_status_t), intent(out) :: status !! outcome
+        real(wp) :: dq(self%n, 0:self%order_m), dp(self%n, 0:self%order_n)
+        real(wp) :: dmu(self%m, 0:self%order_m), rhs(self%nx), y(self%nx)
+        integer :: row
+        if (.not. self%linearised) then
+            call set_status(status, HOLOSYM_NOT_INITIALIZED, "tangent before linearise")
+            return
+        end if
+        ! With the unknowns offsets from (q_a, p_a), F_qa dq_a is the derivative along
+        ! dq_a at every node q_0..q_M, F_pa dp_a along dp_a at every p_j plus the p_a of
+        ! the row p_a + D_0.
+        dq = spread(dqa, 2, self%order_m + 1)
+        dp = spread(dpa, 2, self%order_n + 1)
+        dmu = 0
+        call linearised_residual(self%lin, self%layout, dq, dp, dmu, rhs, dpb)
+        row = self%layout%d_row_at(0)
+        rhs(row + 1:row + self%n) = rhs(row + 1:row + self%n) + dpa
+        call refined_solve(self, rhs, y, status)
+        if (.not. status%ok()) return
+        ! The nodes move by dq_a + dz_i, dz = -y (q_0 by dq_a), the momenta by dp_a + dw_j.
+        call unknown_directions(self, -y, dq, dp, dmu, dqa, dpa)
+        call linearised_residual(self%lin, self%layout, dq, dp, dmu, rhs, dpb)
+        dqb = dq(:, self%order_m)
+    end subroutine scheme_tangent
+
+    !> Newton matrix at the linearised solution times y (a vector of unknowns), from the
+    !! derivative of the equations rather than the assembled matrix.
+    subroutine scheme_linearised_product(self, y, f)
+        class(discrete_scheme), intent(in) :: self
+        real(wp), intent(in) :: y(:)  !! nx
+        real(wp), intent(out) :: f(:) !! nx
+        real(wp) :: dq(self%n, 0:self%order_m), dp(self%n, 0:self%order_n)
+        real(wp) :: dmu(self%m, 0:self%order_m), d_end(self%n)
+        call unknown_directions(self, y, dq, dp, dmu)
+        call linearised_residual(self%lin, self%layout, dq, dp, dmu, f, d_end)
+    end subroutine scheme_linearised_product
+
+    !> The directions of the nodes, momenta and multipliers of a direction y of the
+    !! unknowns, plus a common direction (dq_a, dp_a) of the start state when present.
+    pure subroutine unknown_directions(self, y, dq, dp, dmu, dqa, dpa)
+        class(discrete_scheme), intent(in) :: self
+        real(wp), intent(in) :: y(:)
+        real(wp), intent(out) :: dq(:, 0:), dp(:, 0:), dmu(:, 0:)
+        real(wp), intent(in), optional :: dqa(:), dpa(:)
+        integer :: i, base
+        associate (lay => self%layout, n => self%n, m => self%m)
+            dq(:, 0) = 0
+            do i = 1, self%order_m
+                base = lay%z_at(i)
+                dq(:, i) = y(base + 1:base + n)
+            end do
+            do i = 0, self%order_n
+                base = lay%w_at(i)
+                dp(:, i) = y(base + 1:base + n)
+            end do
+            do i = 0, self%order_m
+                base = lay%mu_at(i)
+                dmu(:, i) = y(base + 1:base + m)
+            end do
+        end associate
+        if (present(dqa)) dq = dq + spread(dqa, 2, size(dq, 2))
+        if (present(dpa)) dp = dp + spread(dpa, 2, size(dp, 2))
+    end subroutine unknown_directions
+
+    !> Solve (Newton matrix) y = rhs with the real64 factors, refined with the exact
+    !! product in working precision until the corrections stop shrinking (round-off of the
+    !! product) or fall below epsilon (or the next one would: corrections shrink
+    !! geometrically, so the one after c_k is about c_k^2 / c_(k-1)). Each refinement multiplies the error by about
+    !! cond(F_x) epsilon(real64): a few refinements reach working precision unless the
+    !! matrix is too ill-conditioned for real64 factors, which is refused.
+    subroutine refined_solve(self, rhs, y, status)
+        class(discrete_scheme), intent(in) :: self
+        real(wp), intent(in) :: rhs(:)
+        real(wp), intent(out) :: y(:)
+        type(holosym_status_t), intent(out) :: status
+        real(dp) :: correction(self%nx, 1)
+        real(wp) :: product(self%nx), size_now, size_before, next
+        integer :: refinement
+        y = 0
+        product = 0
+        size_before = huge(1.0_wp)
+        do refinement = 1, max_refinements
+            correction(:, 1) = real(rhs - product, dp)
+            call lu_solve_dp(self%lin_factors, self%lin_pivots, correction)
+            y = y + real(correction(:, 1), wp)
+            size_now = real(maxval(abs(correction)), wp)
+            ! Converged (or the next correction, at this rate of contraction, would be),
+            ! or no longer contracting (the product's round-off, or divergence).
+            next = size_now
+            if (refinement > 1) next = size_now * min(1.0_wp, size_now / size_before)
+            if (next <= epsilon(1.0_wp) * maxval(abs(y)) .or. &
+                size_now > refinement_contraction * size_before) exit
+            size_before = size_now
+            call self%linearised_product(y, product)
+        end do
+        if (size_now <= refined_accuracy * maxval(abs(y))) then
+            call set_status(status, HOLOSYM_SUCCESS, "")
+        else
+            call set_status(status, HOLOSYM_SINGULAR_MATRIX, "the Newton matrix of the step " &
+                // "is too ill-conditioned for the tangent map (the refinement stopped at a " &
+                // "relative correction " // real_str(size_now / maxval(abs(y))) // ")")
+        end if
+    end subroutine refined_solve
 
 end module holosym_scheme
