@@ -49,8 +49,11 @@
 !!   (docs/status-codes.md).
 !! - [[project_to_manifold]], [[projection_report_t]],
 !!   `projection_max_iterations_default`: moves a nearby state onto the manifold.
-!! - [[project_tangent]], [[tangent_residual]], `tangent_tolerance`: the tangent space of
-!!   the manifold at a state, where `step_tangent` takes its vectors (docs/events.md).
+!! - [[lyapunov_spectrum]], [[lyapunov_result_t]], [[lyapunov_tracker_t]]: Lyapunov
+!!   exponents and MEGNO of an
+!!   orbit on the manifold, from the tangent map (docs/events.md).
+!! - [[project_tangent]], [[tangent_basis]], [[tangent_residual]], `tangent_tolerance`: the
+!!   tangent space of the manifold at a state, where `step_tangent` takes its vectors (docs/events.md).
 !! - [[manifold_residuals]], [[full_rank_constraints]], `manifold_tolerance_default`:
 !!   the constraint residuals of a state; the rank test of Phi.
 !! - [[spherical_pendulum]], [[spring_linkage]], [[planar_pendulum]],
@@ -98,7 +101,8 @@ module holosym
         difference_constraint_hessian
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, &
         full_rank_constraints
-    use holosym_tangent_space, only: project_tangent, tangent_residual, tangent_tolerance
+    use holosym_tangent_space, only: project_tangent, tangent_residual, tangent_tolerance, &
+        tangent_basis
     use holosym_projection, only: project_to_manifold, projection_report_t, &
         projection_max_iterations_default
     use holosym_initial_states, only: state_from_velocities
@@ -115,6 +119,7 @@ module holosym
     use holosym_events, only: event_set, event_t, integrate_events, model_events, EVENT_ANY, &
         EVENT_RISING, EVENT_FALLING
     use holosym_sections, only: section_t, make_section
+    use holosym_lyapunov, only: lyapunov_spectrum, lyapunov_result_t, lyapunov_tracker_t
     use holosym_integrator, only: constrained_integrator, step_info_t, step_observer, &
         integrator_stats_t, step_dense_output
     use holosym_observers, only: trajectory_writer, energy_monitor, trajectory_header
@@ -151,7 +156,7 @@ module holosym
     public :: constrained_hamiltonian, difference_hessian, difference_constraint_hessian
     public :: manifold_residuals, manifold_tolerance_default, full_rank_constraints
     public :: project_to_manifold, projection_report_t, projection_max_iterations_default
-    public :: project_tangent, tangent_residual, tangent_tolerance
+    public :: project_tangent, tangent_residual, tangent_tolerance, tangent_basis
     public :: state_from_velocities
     ! A system from formulas: the model file, read, differentiated and compiled.
     public :: formula_model, load_model, model_from_text
@@ -175,6 +180,7 @@ module holosym
         EVENT_FALLING
     ! Sections: the crossings of a surface g(q, p) = 0 (Poincare sections).
     public :: section_t, make_section
+    public :: lyapunov_spectrum, lyapunov_result_t, lyapunov_tracker_t
     public :: trajectory_writer, energy_monitor, trajectory_header
     ! The baseline: RATTLE and its symmetric compositions.
     public :: rattle_integrator, rattle_stats_t, composition_coefficients, rattle_max_order

@@ -12,7 +12,8 @@ module test_tangent
     use holosym_models, only: spherical_pendulum, spring_linkage
     use holosym_scheme, only: discrete_scheme
     use holosym_integrator, only: constrained_integrator
-    use holosym_tangent_space, only: project_tangent, tangent_residual, tangent_tolerance
+    use holosym_tangent_space, only: project_tangent, tangent_residual, tangent_tolerance, &
+        tangent_basis
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
@@ -115,7 +116,7 @@ contains
         real(wp), parameter :: shifts(4) = [1, -1, 2, -2]
         integer :: k, j
         call start(sys, q, p)
-        call tangent_basis(sys, q, p, dq, dp)
+        call basis_of(sys, q, p, dq, dp)
         integ%structured = structured
         integ%manifold_tolerance = 1.0e-6_wp
         call integ%init(sys, order_m, order_n, gauss_points, status)
@@ -174,7 +175,7 @@ contains
         integer :: k, count, step
         count = 2 * (sys%n - sys%m)
         call start(sys, q, p)
-        call tangent_basis(sys, q, p, dq, dp)
+        call basis_of(sys, q, p, dq, dp)
         call check(error, all(norm2(dq(:, 1:count), 1)**2 + norm2(dp(:, 1:count), 1)**2 > &
             0.5_wp), "a basis of " // int_str(count) // " tangent vectors")
         if (allocated(error)) return
@@ -215,7 +216,7 @@ contains
         sys = spring_linkage()
         do path = 1, 2
             call start(sys, q(:, path), p(:, path))
-            call tangent_basis(sys, q(:, path), p(:, path), dq(:, :, path), dp(:, :, path))
+            call basis_of(sys, q(:, path), p(:, path), dq(:, :, path), dp(:, :, path))
             integ(path)%structured = path == 1
             call integ(path)%init(sys, 4, 3, 5, status)
             do step = 1, 5
@@ -276,7 +277,7 @@ contains
         call start(sys, q, p)
         q0 = q
         p0 = p
-        call tangent_basis(sys, q, p, dq, dp)
+        call basis_of(sys, q, p, dq, dp)
         dq(:, 2) = q
         dq0 = dq
         dp0 = dp
@@ -318,45 +319,21 @@ contains
         end select
     end subroutine start
 
-    !> An orthonormal basis of the tangent space at (q, p) in the first 2(n - m) columns
-    !! (the unit vectors projected, then orthonormalised, those left small dropped); the
-    !! other columns zero.
-    subroutine tangent_basis(sys, q, p, dq, dp)
+    !> The first columns of an orthonormal basis of the tangent space at (q, p)
+    !! (`tangent_basis`), as many as dq has (the columns beyond 2(n - m) zero).
+    subroutine basis_of(sys, q, p, dq, dp)
         class(constrained_hamiltonian), intent(in) :: sys
         real(wp), intent(in) :: q(:), p(:)
         real(wp), intent(out) :: dq(:, :), dp(:, :)
-        real(wp) :: d(2 * sys%n, 2 * sys%n), v(2 * sys%n), uq(sys%n, 1), up(sys%n, 1)
-        integer :: k, j, found, n
-        n = sys%n
-        found = 0
-        d = 0
-        do k = 1, 2 * n
-            uq = 0
-            up = 0
-            if (k <= n) uq(k, 1) = 1
-            if (k > n) up(k - n, 1) = 1
-            call project_tangent(sys, q, p, uq, up)
-            v(1:n) = uq(:, 1)
-            v(n + 1:) = up(:, 1)
-            do j = 1, found
-                v = v - dot_product(d(:, j), v) * d(:, j)
-            end do
-            if (norm2(v) < 0.1_wp) cycle
-            v = v / norm2(v)
-            ! Orthogonalised twice, and projected again: tangent and orthonormal to round-off.
-            do j = 1, found
-                v = v - dot_product(d(:, j), v) * d(:, j)
-            end do
-            found = found + 1
-            d(:, found) = v / norm2(v)
-        end do
+        real(wp) :: bq(sys%n, 2 * sys%n), bp(sys%n, 2 * sys%n)
+        integer :: count, k
+        call tangent_basis(sys, q, p, bq, bp, count)
+        k = min(size(dq, 2), size(bq, 2))
         dq = 0
         dp = 0
-        do k = 1, min(found, size(dq, 2))
-            dq(:, k) = d(1:n, k)
-            dp(:, k) = d(n + 1:, k)
-        end do
-    end subroutine tangent_basis
+        dq(:, 1:k) = bq(:, 1:k)
+        dp(:, 1:k) = bp(:, 1:k)
+    end subroutine basis_of
 
     !> omega(u_a, u_b) for the columns of (dq, dp).
     pure function symplectic_form(dq, dp) result(form)

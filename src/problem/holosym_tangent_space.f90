@@ -20,7 +20,7 @@ module holosym_tangent_space
     implicit none
     private
 
-    public :: tangent_constraints, tangent_residual, project_tangent
+    public :: tangent_constraints, tangent_residual, project_tangent, tangent_basis
 
     !> Largest `tangent_residual` of a direction that `step_tangent` accepts: epsilon^(3/4)
     !! (2e-25 in real128, 2e-12 in real64). A direction built in the tangent space carries
@@ -62,9 +62,10 @@ contains
     end subroutine tangent_constraints
 
     !> How far the direction (dq, dp) is from the tangent space at (q, p): the largest
-    !! |(C d)_l| / sum_k |C_lk| |d_k| over the 2m rows of C (0 for a zero row product), a
+    !! |(C d)_l| / (sum_k |C_lk| max_k |d_k|) over the 2m rows of C (0 for d = 0), a
     !! number of the order of epsilon for a tangent direction and of order 1 for a generic
-    !! one, whatever the size of d. NaN when the system returns a non-finite value.
+    !! one, whatever the sizes of d and of the rows (a row's entries that round-off left
+    !! tiny do not make it large, as |(C d)_l| / sum_k |C_lk| |d_k| would). NaN when the system returns a non-finite value.
     function tangent_residual(sys, q, p, dq, dp) result(residual)
         class(constrained_hamiltonian), intent(in) :: sys !! the system
         real(wp), intent(in) :: q(:), p(:)   !! the state (n each)
@@ -83,7 +84,7 @@ contains
         d(sys%n + 1:) = dp
         do l = 1, 2 * sys%m
             product = dot_product(c(l, :), d)
-            scale = dot_product(abs(c(l, :)), abs(d))
+            scale = sum(abs(c(l, :))) * maxval(abs(d))
             if (scale > 0) residual = max(residual, abs(product) / scale)
         end do
     end function tangent_residual
@@ -138,5 +139,68 @@ contains
         end if
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine project_tangent
+
+    !> An orthonormal basis of the tangent space at (q, p): its dimension 2(n - m) in
+    !! `count`, the vectors in the first `count` columns of (dq, dp) (the unit vectors
+    !! projected by `project_tangent`, orthonormalised by Gram-Schmidt twice, those that
+    !! the projection leaves shorter than 1/10 after orthogonalisation dropped); the other
+    !! columns zero. Codes as `project_tangent`; HOLOSYM_SIZE_MISMATCH also when dq or dp
+    !! has fewer than 2(n - m) columns.
+    subroutine tangent_basis(sys, q, p, dq, dp, count, status)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q(:), p(:)  !! the state (n each)
+        real(wp), intent(out) :: dq(:, :)   !! n x (>= 2(n - m)) q parts of the basis
+        real(wp), intent(out) :: dp(:, :)   !! n x (>= 2(n - m)) p parts of the basis
+        integer, intent(out) :: count       !! 2(n - m), the vectors found
+        type(holosym_status_t), intent(out), optional :: status !! outcome
+        type(holosym_status_t) :: local
+        real(wp) :: uq(sys%n, 2 * sys%n), up(sys%n, 2 * sys%n), basis(2 * sys%n, 2 * sys%n)
+        real(wp) :: v(2 * sys%n)
+        integer :: k, j, n, pass
+        n = sys%n
+        count = 0
+        dq = 0
+        dp = 0
+        if (size(dq, 2) < 2 * (n - sys%m) .or. size(dp, 2) /= size(dq, 2)) then
+            call set_status(status, HOLOSYM_SIZE_MISMATCH, "tangent_basis: dq and dp need " &
+                // int_str(2 * (n - sys%m)) // " columns alike")
+            return
+        end if
+        uq = 0
+        up = 0
+        do k = 1, n
+            uq(k, k) = 1
+            up(k, n + k) = 1
+        end do
+        call project_tangent(sys, q, p, uq, up, local)
+        if (.not. local%ok()) then
+            call set_status(status, local%code, local%message)
+            return
+        end if
+        do k = 1, 2 * n
+            if (count == 2 * (n - sys%m)) exit
+            v(1:n) = uq(:, k)
+            v(n + 1:) = up(:, k)
+            do pass = 1, 2
+                do j = 1, count
+                    v = v - dot_product(basis(:, j), v) * basis(:, j)
+                end do
+                if (norm2(v) < 0.1_wp) exit
+                v = v / norm2(v)
+            end do
+            if (pass <= 2) cycle
+            count = count + 1
+            basis(:, count) = v
+        end do
+        if (count < 2 * (n - sys%m)) then
+            call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, "tangent_basis: " &
+                // "the tangent space at the state has fewer than 2(n - m) dimensions")
+            count = 0
+            return
+        end if
+        dq(:, 1:count) = basis(1:n, 1:count)
+        dp(:, 1:count) = basis(n + 1:, 1:count)
+        call set_status(status, HOLOSYM_SUCCESS, "")
+    end subroutine tangent_basis
 
 end module holosym_tangent_space
