@@ -17,6 +17,7 @@ module holosym_cli
     use holosym_cli_extremes, only: extremes_command
     use holosym_cli_ensemble, only: ensemble_command
     use holosym_cli_poincare, only: poincare_command
+    use holosym_cli_lyapunov, only: lyapunov_command
     use holosym_task_farm, only: task_farm
     use holosym_cli_figures, only: figures_command
     use holosym_cli_check, only: check_command
@@ -50,6 +51,7 @@ contains
             "  extremes   stability at the extremes: long runs, tiny/large steps, high orders", &
             "  ensemble   many trajectories in parallel (threads or MPI ranks), resumable", &
             "  poincare   the crossings of a section g(q, p) = 0 by orbits (Poincare sections)", &
+            "  lyapunov   the Lyapunov spectrum and MEGNO of an orbit on the manifold", &
             "  figures    the data of the figures in docs/figures.md, as CSV", &
             "  check      compare a system's procedures and declarations with each other", &
             "", &
@@ -140,6 +142,8 @@ contains
             call ensemble_command(args, out, err_unit, exit_code, farm)
         case ("poincare")
             call poincare_command(args, out, err_unit, exit_code, farm)
+        case ("lyapunov")
+            call lyapunov_command(args, out, err_unit, exit_code)
         case ("figures")
             call figures_command(args, out, err_unit, exit_code)
         case default

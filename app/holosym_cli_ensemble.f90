@@ -31,7 +31,8 @@ module holosym_cli_ensemble
     private
 
     public :: ensemble_config_t, parse_ensemble_options, ensemble_command, ensemble_help
-    public :: workers_text, perturb_options_help, system_options_help, take_run_option
+    public :: workers_text, perturb_options_help, system_options_help, take_run_option, &
+        steps_fit
 
     !> Largest --perturb (trajectories generated; each keeps its state and result).
     integer, parameter :: max_perturb = 1000000

@@ -10,7 +10,10 @@ module test_lyapunov
     use holosym_model_chain, only: pendulum_chain
     use holosym_integrator, only: constrained_integrator
     use holosym_lyapunov, only: lyapunov_spectrum, lyapunov_result_t, lyapunov_tracker_t
-    use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
+    use holosym_test_commands, only: command_result_t, run_holosym, read_lines, scratch_path, &
+        text_line_t, any_line_contains
+    use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code, &
+        split_field
     implicit none
     private
     public :: lyapunov_tests
@@ -24,7 +27,9 @@ contains
             new_test("spherical_pendulum_regular", regular), &
             new_test("double_pendulum_chaotic", chaotic), &
             new_test("a_run_in_pieces_is_one_run", pieces), &
-            new_test("bad_input_refused", refusals) &
+            new_test("bad_input_refused", refusals), &
+            new_test("cli_lyapunov_model_file", cli_model), &
+            new_test("cli_lyapunov_refusals", cli_refusals) &
         ]
     end function lyapunov_tests
 
@@ -150,6 +155,69 @@ contains
             "h = 50: status " // int_str(status%code) // ", " // int_str(result%steps) // &
             " steps")
     end subroutine refusals
+
+    !> `holosym lyapunov` on the double pendulum's model file set to the chaotic start of
+    !! `double_pendulum_chaotic`: the CSV's header, a row every 100 steps and after the
+    !! last, and the same spectrum as the library on the built-in twin (to the twins'
+    !! round-off, grown by the chaos to well under 1e-20).
+    subroutine cli_model(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: a
+        type(text_line_t), allocatable :: rows(:)
+        type(pendulum_chain), target :: sys
+        type(constrained_integrator) :: integ
+        type(lyapunov_result_t) :: library
+        type(holosym_status_t) :: status
+        character(len=:), allocatable :: file, field
+        real(wp) :: values(6), q(4), p(4)
+        integer :: ios, i
+        file = scratch_path("lyapunov.csv")
+        call run_holosym([character(len=256) :: "lyapunov", "--model", &
+            "example/models/double_pendulum.hsm", "--set", "m2=1", "--set", "l2=1", "--set", &
+            "theta1=2", "--set", "theta2=2.5", "--M", "4", "--h", "1/16", "--T", "25", &
+            "--every", "150", "--output", file], a)
+        call check(error, len(a%failure) == 0 .and. a%exit_code == 0, "exit " // &
+            int_str(a%exit_code) // " " // a%failure)
+        if (allocated(error)) return
+        call read_lines(file, rows, ios)
+        call check(error, ios == 0 .and. size(rows) == 4, int_str(size(rows)) // " lines")
+        if (allocated(error)) return
+        call check(error, rows(1)%text == "t,lambda1,lambda2,lambda3,lambda4,megno", &
+            rows(1)%text)
+        if (allocated(error)) return
+        do i = 1, 6
+            field = split_field(rows(4)%text, i, ",")
+            read (field, *, iostat=ios) values(i)
+            if (ios /= 0) exit
+        end do
+        sys = pendulum_chain(2)
+        q = [sin(2.0_wp), -cos(2.0_wp), sin(2.0_wp) + sin(2.5_wp), -cos(2.0_wp) - cos(2.5_wp)]
+        p = 0
+        call integ%init(sys, 4, 3, 5, status)
+        if (status%ok()) call lyapunov_spectrum(integ, sys, q, p, 0.0625_wp, 400, library, &
+                                                status)
+        call check(error, ios == 0 .and. status%ok() .and. values(1) == 25 .and. &
+            maxval(abs(values(2:5) - library%exponents)) <= 1.0e-20_wp .and. &
+            abs(values(6) - library%megno) <= 1.0e-20_wp .and. &
+            any_line_contains(a%err, "MEGNO"), "last row " // rows(4)%text)
+    end subroutine cli_model
+
+    !> T = 0, --every 0, an unknown option: exit 2 naming the option.
+    subroutine cli_refusals(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(command_result_t) :: a
+        call run_holosym("lyapunov --T 0", a)
+        call check(error, a%exit_code == 2 .and. any_line_contains(a%err, "options --T " // &
+            "and --h"), "T = 0: exit " // int_str(a%exit_code))
+        if (allocated(error)) return
+        call run_holosym("lyapunov --every 0", a)
+        call check(error, a%exit_code == 2 .and. any_line_contains(a%err, "--every"), &
+            "--every 0: exit " // int_str(a%exit_code))
+        if (allocated(error)) return
+        call run_holosym("lyapunov --states x.csv", a)
+        call check(error, a%exit_code == 2 .and. any_line_contains(a%err, &
+            "unknown option '--states'"), "--states: exit " // int_str(a%exit_code))
+    end subroutine cli_refusals
 
     subroutine sphere_run(h, steps, result, error)
         real(wp), intent(in) :: h
