@@ -22,12 +22,14 @@ module holosym_tangent_space
 
     public :: tangent_constraints, tangent_residual, project_tangent, tangent_basis
 
-    !> Largest `tangent_residual` of a direction that `step_tangent` accepts: epsilon^(3/4)
-    !! (2e-25 in real128, 2e-12 in real64). A direction built in the tangent space carries
-    !! a residual of a few epsilon, and the tangent map adds about epsilon per step (1e6
-    !! steps stay near 1e6 epsilon, far below); a direction not built in it has a residual
-    !! of order 1.
-    real(wp), parameter, public :: tangent_tolerance = epsilon(1.0_wp)**0.75_wp
+    !> Largest `tangent_residual` of a direction that `step_tangent` accepts: about
+    !! epsilon^(3/4), 2^(-3(p-1)/4) for p binary digits (5e-26 in real128, 2e-12 in real64;
+    !! an integer power, which every compiler folds). A direction built in the tangent space
+    !! carries a residual of a few epsilon, and the tangent map adds about epsilon per step
+    !! (1e6 steps stay near 1e6 epsilon, far below); a direction not built in it has a
+    !! residual of order 1.
+    real(wp), parameter, public :: tangent_tolerance = &
+        2.0_wp**(-(3 * (digits(1.0_wp) - 1)) / 4)
 
 contains
 

@@ -77,8 +77,9 @@ module holosym_scheme
     !! the round-off of the product (or diverges): the refinement stops.
     real(wp), parameter :: refinement_contraction = 0.5_wp
     !> A refined solution whose last correction is above this (relative) is refused: the
-    !! tangent would hold fewer than half the working digits.
-    real(wp), parameter :: refined_accuracy = sqrt(epsilon(1.0_wp))
+    !! tangent would hold fewer than half the working digits (2^(-(p-1)/2) for p binary
+    !! digits, sqrt(epsilon) as an integer power that every compiler folds).
+    real(wp), parameter :: refined_accuracy = 2.0_wp**(-(digits(1.0_wp) - 1) / 2)
 
     !> Jacobian assembled from the second derivatives of H and phi (default).
     integer, parameter, public :: JACOBIAN_ASSEMBLED = 1
