@@ -8,9 +8,10 @@ module holosym_test_systems
     use holosym_problem, only: constrained_hamiltonian
     use holosym_model_chain, only: pendulum_chain
     use holosym_study_systems, only: make_system
+    use holosym_models, only: spherical_pendulum, spring_linkage
     implicit none
     private
-    public :: builtin_system
+    public :: builtin_system, paper_start
 
 contains
 
@@ -32,5 +33,18 @@ contains
             call make_system(name, sys, q, p, status)
         end if
     end subroutine builtin_system
+
+    !> The paper's start state of either of its systems (spherical pendulum, spring
+    !! linkage); q and p are left as they are for any other system.
+    subroutine paper_start(sys, q, p)
+        class(constrained_hamiltonian), intent(in) :: sys !! one of the paper's systems
+        real(wp), intent(inout) :: q(:), p(:)             !! its start state
+        select type (sys)
+        type is (spherical_pendulum)
+            call sys%initial_state(q, p)
+        type is (spring_linkage)
+            call sys%initial_state(q, p)
+        end select
+    end subroutine paper_start
 
 end module holosym_test_systems

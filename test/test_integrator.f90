@@ -7,6 +7,7 @@ module test_integrator
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_info_t
     use holosym_models, only: spherical_pendulum, spring_linkage
+    use holosym_test_systems, only: paper_start
     use holosym_linalg, only: lu_factor, lu_solve
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, skip
     implicit none
@@ -119,7 +120,7 @@ contains
         real(wp), intent(in) :: h
         real(wp) :: q(sys%n), p(sys%n), energy_error, max_constraint, max_velocity
         type(holosym_status_t) :: status
-        call initial_state(sys, q, p)
+        call paper_start(sys, q, p)
         call run(sys, order_m, order_n, gauss_points, h, steps, q, p, energy_error, &
                  max_constraint, max_velocity, status)
         call check(error, status%ok(), "integration failed: " // status_text(status))
@@ -129,16 +130,6 @@ contains
             real_str(max_velocity) // " for M = " // int_str(order_m))
     end subroutine check_constraints
 
-    subroutine initial_state(sys, q, p)
-        class(constrained_hamiltonian), intent(in) :: sys
-        real(wp), intent(out) :: q(:), p(:)
-        select type (sys)
-        type is (spherical_pendulum)
-            call sys%initial_state(q, p)
-        type is (spring_linkage)
-            call sys%initial_state(q, p)
-        end select
-    end subroutine initial_state
 
     function status_text(status) result(text)
         type(holosym_status_t), intent(in) :: status
@@ -334,7 +325,7 @@ contains
         integer :: seed_size
         integer, allocatable :: seed(:)
         delta = fd_delta()
-        call initial_state(sys, q, p)
+        call paper_start(sys, q, p)
         x = [q, p]
         call random_seed(size=seed_size)
         allocate (seed(seed_size))

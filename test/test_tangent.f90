@@ -11,6 +11,7 @@ module test_tangent
         HOLOSYM_NOT_INITIALIZED
     use holosym_problem, only: constrained_hamiltonian
     use holosym_models, only: spherical_pendulum, spring_linkage
+    use holosym_test_systems, only: paper_start
     use holosym_scheme, only: discrete_scheme
     use holosym_integrator, only: constrained_integrator
     use holosym_tangent_space, only: project_tangent, tangent_residual, tangent_tolerance, &
@@ -116,7 +117,7 @@ contains
         real(wp), parameter :: weights(4) = [8, -8, -1, 1] / 12.0_wp
         real(wp), parameter :: shifts(4) = [1, -1, 2, -2]
         integer :: k, j
-        call start(sys, q, p)
+        call paper_start(sys, q, p)
         call basis_of(sys, q, p, dq, dp)
         integ%structured = structured
         integ%manifold_tolerance = 1.0e-6_wp
@@ -175,7 +176,7 @@ contains
         real(wp) :: drift, residual, size_now
         integer :: k, count, step
         count = 2 * (sys%n - sys%m)
-        call start(sys, q, p)
+        call paper_start(sys, q, p)
         call basis_of(sys, q, p, dq, dp)
         call check(error, all(norm2(dq(:, 1:count), 1)**2 + norm2(dp(:, 1:count), 1)**2 > &
             0.5_wp), "a basis of " // int_str(count) // " tangent vectors")
@@ -216,7 +217,7 @@ contains
         integer :: path, step
         sys = spring_linkage()
         do path = 1, 2
-            call start(sys, q(:, path), p(:, path))
+            call paper_start(sys, q(:, path), p(:, path))
             call basis_of(sys, q(:, path), p(:, path), dq(:, :, path), dp(:, :, path))
             integ(path)%structured = path == 1
             call integ(path)%init(sys, 4, 3, 5, status)
@@ -243,7 +244,7 @@ contains
         real(wp) :: q(6), p(6), dq(6, 1), dp(6, 1), once_q(6, 1), once_p(6, 1)
         integer :: i
         sys = spring_linkage()
-        call start(sys, q, p)
+        call paper_start(sys, q, p)
         dq(:, 1) = [(cos(real(i, wp)), i = 1, 6)]
         dp(:, 1) = [(sin(real(2 * i, wp)), i = 1, 6)]
         call check(error, tangent_residual(sys, q, p, dq(:, 1), dp(:, 1)) > 1.0e-3_wp, &
@@ -275,7 +276,7 @@ contains
         type(holosym_status_t) :: status
         real(wp) :: q(3), p(3), q0(3), p0(3), dq(3, 2), dp(3, 2), dq0(3, 2), dp0(3, 2)
         sys = spherical_pendulum()
-        call start(sys, q, p)
+        call paper_start(sys, q, p)
         q0 = q
         p0 = p
         call basis_of(sys, q, p, dq, dp)
@@ -306,18 +307,6 @@ contains
         if (allocated(error)) return
         call check(error, all(dq(:, 2) == 0) .and. all(dp(:, 2) == 0), "zero maps to zero")
     end subroutine refusals
-
-    !> The system's start state (the paper's).
-    subroutine start(sys, q, p)
-        class(constrained_hamiltonian), intent(in) :: sys
-        real(wp), intent(out) :: q(:), p(:)
-        select type (sys)
-        type is (spherical_pendulum)
-            call sys%initial_state(q, p)
-        type is (spring_linkage)
-            call sys%initial_state(q, p)
-        end select
-    end subroutine start
 
     !> The first columns of an orthonormal basis of the tangent space at (q, p)
     !! (`tangent_basis`), as many as dq has (the columns beyond 2(n - m) zero).
