@@ -241,6 +241,17 @@ int holosym_integrate_events(holosym_integrator *integrator, holosym_real *q,
                              holosym_event_found_fn found, void *data, int *steps_done,
                              int *stopped);
 
+/* The Lyapunov spectrum and MEGNO of the orbit from (q, p) on the constraint manifold
+ * over steps steps of *h (docs/events.md): 2(n - m) exponents, largest first, into
+ * exponents, the mean MEGNO <Y> into *megno. q and p end at the state after the steps
+ * taken, also on failure (exponents and megno then cover the steps before it, and are
+ * untouched when no step was taken); *steps_done (may be NULL) counts them. Reals
+ * through pointers in both builds. */
+int holosym_lyapunov_spectrum(holosym_integrator *integrator, holosym_real *q,
+                              holosym_real *p, const holosym_real *h, int steps,
+                              holosym_real *exponents, holosym_real *megno,
+                              int *steps_done);
+
 #ifdef __cplusplus
 }
 #endif

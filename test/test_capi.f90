@@ -22,8 +22,9 @@ module test_capi
         holosym_step_p, holosym_integrate_p, holosym_dense_output_p, &
         holosym_model_set_parameter_p, holosym_energy, holosym_constraint, &
         holosym_plan_accuracy, name_parameter_c, name_coordinate_c, name_momentum_c, &
-        holosym_integrate_events
+        holosym_integrate_events, holosym_lyapunov_spectrum
     use holosym_events, only: event_set, event_t, integrate_events
+    use holosym_lyapunov, only: lyapunov_spectrum, lyapunov_result_t
     use holosym_formula_model, only: formula_model, load_model
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
@@ -56,7 +57,8 @@ contains
             new_test("header_and_docs_follow_the_status_table", header_codes), &
             new_test("reals_through_pointers_match_values", pointer_calls), &
             new_test("plan_accuracy_as_in_fortran", plan_accuracy), &
-            new_test("events_as_in_fortran", events_through_c)]
+            new_test("events_as_in_fortran", events_through_c), &
+            new_test("lyapunov_as_in_fortran", lyapunov_through_c)]
     end function capi_tests
 
     ! ---------------------------------------------------------------- C callbacks
@@ -923,6 +925,50 @@ contains
             "NULL g")
         call holosym_destroy(handle)
     end subroutine events_through_c
+
+    !> holosym_lyapunov_spectrum on the planar pendulum of C callbacks gives the spectrum,
+    !! MEGNO and end state of lyapunov_spectrum on the built-in twin; NULL exponents are
+    !! refused with the state unchanged.
+    subroutine lyapunov_through_c(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(c_ptr) :: handle
+        type(planar_pendulum) :: sys
+        type(constrained_integrator) :: integ
+        type(lyapunov_result_t) :: fortran
+        type(holosym_status_t) :: status
+        type(holosym_system_c), target :: system
+        real(c_real), target :: q(2), p(2), h, exponents(2), megno, q0(2)
+        real(wp) :: qf(2), pf(2), agreement
+        integer(c_int), target :: done
+        agreement = max(1.0e-29_wp, 1.0e4_wp * eps)
+        sys = planar_pendulum()
+        call sys%initial_state(qf, pf)
+        call integ%init(sys, 4, 3, 5, status)
+        call lyapunov_spectrum(integ, sys, qf, pf, 0.125_wp, 200, fortran, status)
+        system = pendulum_struct()
+        handle = holosym_create(c_loc(system), 4_c_int, 3_c_int, 5_c_int)
+        call sys%initial_state(qf, pf)
+        q = qf
+        p = pf
+        q0 = q
+        h = 0.125_c_real
+        call check_status_code(error, int(holosym_lyapunov_spectrum(handle, c_loc(q), c_loc(p), &
+            c_loc(h), 0_c_int, c_null_ptr, c_loc(megno), c_loc(done))), &
+            HOLOSYM_INVALID_ARGUMENT, "NULL exponents")
+        if (allocated(error)) return
+        call check(error, all(q == q0), "the state moved")
+        if (allocated(error)) return
+        call check_status_code(error, int(holosym_lyapunov_spectrum(handle, c_loc(q), c_loc(p), &
+            c_loc(h), 200_c_int, c_loc(exponents), c_loc(megno), c_loc(done))), &
+            HOLOSYM_SUCCESS, message_of(handle))
+        if (allocated(error)) return
+        call check(error, status%ok() .and. done == 200 .and. &
+            maxval(abs(real(exponents, wp) - fortran%exponents)) <= agreement .and. &
+            abs(real(megno, wp) - fortran%megno) <= agreement .and. &
+            maxval(abs(real(q, wp) - qf)) > 0.1_wp, "through C " // &
+            real_str(real(exponents(1), wp)) // ", in Fortran " // real_str(fortran%exponents(1)))
+        call holosym_destroy(handle)
+    end subroutine lyapunov_through_c
 
     integer function x_event_count(self)
         class(x_event), intent(in) :: self

@@ -35,6 +35,7 @@ module holosym_c
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
     use holosym_events, only: event_set, event_t, integrate_events
+    use holosym_lyapunov, only: lyapunov_spectrum, lyapunov_result_t
     use holosym_projection, only: project_to_manifold
     use holosym_c_registry, only: register_handle, forget_handle, is_live_handle
     implicit none
@@ -54,7 +55,7 @@ module holosym_c
     ! The trade of speed for accuracy as one argument.
     public :: holosym_plan_accuracy
     ! Events: zero crossings of functions of the motion.
-    public :: holosym_integrate_events
+    public :: holosym_integrate_events, holosym_lyapunov_spectrum
 
     !> What `holosym_model_name` names (HOLOSYM_NAME_* in the header).
     integer(c_int), parameter, public :: name_parameter_c = 0, name_coordinate_c = 1, &
@@ -777,6 +778,58 @@ contains
         if (c_associated(found)) call pass_events(found, list, data)
         holosym_integrate_events = finish(handle, status)
     end function holosym_integrate_events
+
+    !> int holosym_lyapunov_spectrum(holosym_integrator *integrator, holosym_real *q,
+    !! holosym_real *p, const holosym_real *h, int steps, holosym_real *exponents,
+    !! holosym_real *megno, int *steps_done): the Lyapunov spectrum (2(n - m) exponents,
+    !! largest first) and the mean MEGNO of the orbit from (q, p) over `steps` steps of
+    !! *h (`lyapunov_spectrum`); q and p end at the state after the steps taken (also on
+    !! failure, when exponents and megno cover the steps before it; untouched when none
+    !! was taken). steps_done may be NULL. Reals through pointers in both builds.
+    integer(c_int) function holosym_lyapunov_spectrum(ptr, q_ptr, p_ptr, h_ptr, steps, &
+        exponents_ptr, megno_ptr, steps_done) bind(C, name="holosym_lyapunov_spectrum")
+        type(c_ptr), value :: ptr             !! the handle
+        type(c_ptr), value :: q_ptr, p_ptr    !! holosym_real *: the state (n each)
+        type(c_ptr), value :: h_ptr           !! const holosym_real *: step size
+        integer(c_int), value :: steps        !! number of steps
+        type(c_ptr), value :: exponents_ptr   !! holosym_real *: 2(n - m) exponents
+        type(c_ptr), value :: megno_ptr       !! holosym_real *: the mean MEGNO
+        type(c_ptr), value :: steps_done      !! int *, or NULL
+        character(len=*), parameter :: caller = "holosym_lyapunov_spectrum"
+        type(c_handle), pointer :: handle
+        type(lyapunov_result_t) :: result
+        type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:), h, exponents(:), megno
+        real(wp), allocatable :: qw(:), pw(:)
+        handle => ready_handle(ptr, caller, holosym_lyapunov_spectrum)
+        if (.not. associated(handle)) return
+        if (.not. arrays_given(handle, caller, q_ptr, p_ptr, holosym_lyapunov_spectrum)) &
+            return
+        if (.not. (c_associated(h_ptr) .and. c_associated(exponents_ptr) .and. &
+                   c_associated(megno_ptr))) then
+            holosym_lyapunov_spectrum = refuse(handle, HOLOSYM_INVALID_ARGUMENT, caller // &
+                ": h, exponents and megno must not be NULL")
+            return
+        end if
+        call c_f_pointer(h_ptr, h)
+        call c_f_pointer(megno_ptr, megno)
+        exponents => reals_at(exponents_ptr, 2 * max(handle%system%n - handle%system%m, 0))
+        q => reals_at(q_ptr, handle%system%n)
+        p => reals_at(p_ptr, handle%system%n)
+        handle%record%code = 0
+        qw = q
+        pw = p
+        call lyapunov_spectrum(handle%integrator, handle%system, qw, pw, real(h, wp), &
+                               int(steps), result, status)
+        call put_int(steps_done, result%steps)
+        if (result%steps > 0) then
+            q = qw
+            p = pw
+            exponents = real(result%exponents, c_real)
+            megno = real(result%megno, c_real)
+        end if
+        holosym_lyapunov_spectrum = finish(handle, status)
+    end function holosym_lyapunov_spectrum
 
     !> Each event of `list` to the C callback `found`, in order, until it returns non-zero.
     subroutine pass_events(found, list, data)
