@@ -151,6 +151,7 @@ contains
         class(constrained_hamiltonian), allocatable, target :: sys
         type(constrained_integrator) :: integ
         type(lyapunov_tracker_t) :: tracker
+        type(lyapunov_result_t) :: result
         type(output_t) :: file
         type(holosym_status_t) :: status, closing
         real(wp), allocatable :: q(:), p(:)
@@ -184,8 +185,9 @@ contains
         do while (done < steps .and. status%ok())
             call tracker%advance(integ, sys, q, p, config%run%step_size, &
                                  min(every, steps - done), status)
-            done = tracker_steps(tracker)
-            if (done > 0) call put_line(row(tracker%result()))
+            result = tracker%result()
+            done = result%steps
+            if (done > 0) call put_line(row(result))
         end do
         if (len(config%run%output) > 0) then
             call file%close(closing)
@@ -201,7 +203,7 @@ contains
             return
         end if
         call system_clock(clock_end)
-        if (.not. config%run%quiet) call summary(tracker%result(), &
+        if (.not. config%run%quiet) call summary(result, &
             real(clock_end - clock_start, wp) / clock_rate)
         exit_code = EXIT_OK
     contains
@@ -226,14 +228,6 @@ contains
                 seconds_text(seconds, '(f0.2)') // " s"
         end subroutine summary
     end subroutine run_lyapunov_command
-
-    !> The steps a tracker has taken.
-    pure integer function tracker_steps(tracker)
-        type(lyapunov_tracker_t), intent(in) :: tracker
-        type(lyapunov_result_t) :: result
-        result = tracker%result()
-        tracker_steps = result%steps
-    end function tracker_steps
 
     !> "t,lambda1,...,lambdak,megno".
     function header(count) result(text)
