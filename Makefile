@@ -15,6 +15,9 @@
 #   make check-fpm-dependency a project with holosym as an fpm path dependency
 #   make check-fpm-install    fpm install gives the library's modules and nothing else
 #   make profile              callgrind on an example (PROFILE_EXAMPLE=quickstart)
+#   make iteration-instructions  instructions per step of --iteration newton and
+#                             automatic in both builds (callgrind, minutes), into
+#                             build/iteration_instructions*.csv (docs/design.md)
 # Documentation (each page regenerated from a command's output):
 #   make docs                 API pages with FORD (into build/doc), fails on any warning
 #   make docs-tables          docs/tables.md       (holosym tables, seconds)
@@ -78,7 +81,7 @@ DOCS_VENV ?= build/venv-docs
 CMAKE_DIR ?= build/cmake
 
 .PHONY: all deps include-digest test test64 test-trap tables bench bench-long bench-quick bench-report \
-	bench-models bench-models-data bench-accuracy \
+	bench-models bench-models-data bench-accuracy iteration-instructions \
 	pendulum linkage examples clean install check-install check-fpm-install cmake-deps \
 	cmake-test flang-deps test-flang check-examples check-version check-fpm-dependency \
 	profile docs docs-deps docs-tables docs-stability docs-performance mpi test-mpi scaling \
@@ -321,6 +324,15 @@ check-fpm-dependency: deps include-digest
 
 PROFILE_EXAMPLE ?= quickstart
 # callgrind on an example built with -g; the top of callgrind_annotate.
+iteration-instructions: deps include-digest
+	$(FPM) build $(FPM_FLAGS)
+	$(FPM) build $(FPM_FLAGS) $(REAL64_FLAGS)
+	./tools/iteration_instructions.sh \
+		"$$($(FPM) run $(FPM_FLAGS) --runner echo | tail -n 1)" build/iteration_instructions.csv
+	./tools/iteration_instructions.sh \
+		"$$($(FPM) run $(FPM_FLAGS) $(REAL64_FLAGS) --runner echo | tail -n 1)" \
+		build/iteration_instructions64.csv
+
 profile: deps include-digest
 	@command -v valgrind >/dev/null 2>&1 || ./tools/apt-install.sh valgrind
 	$(FPM) build $(FPM_FLAGS) --flag "-g"

@@ -67,6 +67,9 @@ module holosym_cli_simulate
         !! working-precision LU and no speed options; the same results to round-off, many
         !! times slower.
         logical :: plain = .false.
+        !> --iteration: the iteration of the step's equations ('automatic' or 'newton',
+        !! `constrained_integrator%iteration`).
+        character(len=:), allocatable :: iteration
         !> --accuracy: the requested max |error| of q and p at T (0: not given); holosym
         !! then chooses (M, N, G), h and the Newton tolerance (`init_for_accuracy`).
         real(wp) :: accuracy = 0
@@ -98,6 +101,9 @@ module holosym_cli_simulate
         integer :: newton_iterations = 0
         !> Most Newton iterations in one step.
         integer :: max_newton_iterations = 0
+        !> Newton matrices formed and factored, and iterations without one, over all steps
+        !! (the integrator's `stats`).
+        integer(int64) :: factorizations = 0, approximate_iterations = 0
         !> Wall-clock seconds of the integration.
         real(wp) :: wall_time = 0
     end type simulate_summary_t
@@ -185,6 +191,10 @@ contains
             "                 the real128 LU, none of the speed options", &
             "                 (simplified Newton, real64 LU and pre-solve, first-order", &
             "                 increments): the same states to round-off, many times slower", &
+            "  --iteration NAME  automatic: iterate the step without the Newton matrix", &
+            "                 where that contracts (the reduced step); newton: with the", &
+            "                 Newton matrix throughout; the same states to the Newton", &
+            "                 tolerance                                      [automatic]", &
             "  -h, --help     show this help", &
             "", &
             "Columns: t,q1..qn,p1..pn,lambda1..lambdam,H,energy_error,constraint_residual,", &
@@ -249,7 +259,7 @@ contains
                 config%plain = .true.
             case ("--system", "--M", "--m", "--N", "--n", "--G", "--g", "--h", "--T", "--t", &
                   "--steps", "--every", "--output", "--links", "--model", "--set", "--accuracy", &
-                  "--events")
+                  "--events", "--iteration")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
                 call config%source%take(name, value, taken, status)
@@ -350,6 +360,10 @@ contains
             config%output = value
         case ("--events")
             config%events = value
+        case ("--iteration")
+            config%iteration = value
+            call require(value == "automatic" .or. value == "newton", &
+                         "'automatic' or 'newton'")
         end select
     contains
         !> Fail with "option NAME must be BOUND; got VALUE" unless `condition` holds.
@@ -441,6 +455,7 @@ contains
             integrator%linear_solver = "native"
             integrator%linear_increments = .false.
         end if
+        if (allocated(config%iteration)) integrator%iteration = config%iteration
         order = [config%order_m, config%order_n, config%gauss_points]
         h = config%step_size
         steps = config%steps
@@ -513,6 +528,8 @@ contains
             writer%summary%steps_done = steps_done
         end if
         call system_clock(clock_end)
+        writer%summary%factorizations = integrator%stats%lu_factorizations
+        writer%summary%approximate_iterations = integrator%stats%approximate_iterations
         writer%summary%wall_time = real(clock_end - writer%clock_start, wp) / writer%clock_rate
         ! Everything written so far reaches its file (or fails) before the summary.
         if (associated(writer%sink, file)) then
@@ -607,15 +624,18 @@ contains
     subroutine write_summary(err_unit, summary)
         integer, intent(in) :: err_unit                  !! unit for the summary
         type(simulate_summary_t), intent(in) :: summary  !! what the run did
-        character(len=32) :: seconds, mean
+        character(len=32) :: seconds, mean, approximate, matrices
         write (seconds, '(f16.3)') summary%wall_time
+        write (approximate, '(i0)') summary%approximate_iterations
+        write (matrices, '(i0)') summary%factorizations
         mean = "0"
         if (summary%steps_done > 0) write (mean, '(f16.2)') &
             real(summary%newton_iterations, wp) / summary%steps_done
         write (err_unit, '(a)') "holosym simulate: " // int_str(summary%steps_done) // &
             " steps, " // int_str(summary%rows) // " rows in " // trim(adjustl(seconds)) // &
             " s; Newton iterations per step " // trim(adjustl(mean)) // " (max " // &
-            int_str(summary%max_newton_iterations) // ")"
+            int_str(summary%max_newton_iterations) // "; " // trim(approximate) // &
+            " without the Newton matrix, " // trim(matrices) // " Newton matrices)"
         write (err_unit, '(a)') "holosym simulate: max |energy error| " // &
             real_str(summary%max_energy_error) // ", max |phi| " // &
             real_str(summary%max_constraint_residual) // ", max |Phi H_p| " // &

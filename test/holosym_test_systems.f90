@@ -1,7 +1,9 @@
 !> The built-in systems of the tests by name, each with its documented start state: the
 !! systems the `holosym` command knows by name (holosym_study_systems: pendulum, linkage,
 !! planar, chain, double, dumbbell, magnetic, generic) and `chain4`, a chain of four links
-!! released from 0.5, 0.4, 0.3, 0.2 rad (the reference solutions' chain).
+!! released from 0.5, 0.4, 0.3, 0.2 rad (the reference solutions' chain); and
+!! `uneven_chain`, four links of unequal masses and lengths in motion (the comparisons of
+!! paths and iterations).
 module holosym_test_systems
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t
@@ -11,7 +13,7 @@ module holosym_test_systems
     use holosym_models, only: spherical_pendulum, spring_linkage
     implicit none
     private
-    public :: builtin_system, paper_start
+    public :: builtin_system, paper_start, uneven_chain
 
 contains
 
@@ -46,5 +48,16 @@ contains
             call sys%initial_state(q, p)
         end select
     end subroutine paper_start
+
+    !> Four links of masses 1, 2, 1.5, 1 and lengths 1, 0.7, 0.5, 0.8 at angles 0.3, 0.5,
+    !! -0.2, 0.1 rad with angular velocities 0, 0.8, 0.1, -0.3.
+    subroutine uneven_chain(chain, q, p)
+        type(pendulum_chain), intent(out) :: chain
+        real(wp), intent(out) :: q(8), p(8)
+        chain = pendulum_chain(4, masses=[1.0_wp, 2.0_wp, 1.5_wp, 1.0_wp], &
+                               lengths=[1.0_wp, 0.7_wp, 0.5_wp, 0.8_wp])
+        call chain%state_from_angles([0.3_wp, 0.5_wp, -0.2_wp, 0.1_wp], &
+                                     [0.0_wp, 0.8_wp, 0.1_wp, -0.3_wp], q, p)
+    end subroutine uneven_chain
 
 end module holosym_test_systems

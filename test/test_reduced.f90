@@ -16,6 +16,7 @@ module test_reduced
     use holosym_kept_newton, only: kept_newton_t, kept_report_t, kept_newton_solve
     use holosym_scheme, only: discrete_scheme
     use holosym_step_scheme, only: step_scheme, scheme_counters_t
+    use holosym_test_systems, only: uneven_chain
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_status_code
     implicit none
     private
@@ -138,10 +139,7 @@ contains
         planar = planar_pendulum()
         call planar%initial_state(q2, p2)
         call both_paths(error, planar, q2, p2, 8, 7, 9, 0.125_wp, 12, "planar (8,7,9)")
-        chain = pendulum_chain(4, masses=[1.0_wp, 2.0_wp, 1.5_wp, 1.0_wp], &
-                               lengths=[1.0_wp, 0.7_wp, 0.5_wp, 0.8_wp])
-        call chain%state_from_angles([0.3_wp, 0.5_wp, -0.2_wp, 0.1_wp], &
-                                     [0.0_wp, 0.8_wp, 0.1_wp, -0.3_wp], q8, p8)
+        call uneven_chain(chain, q8, p8)
         call both_paths(error, chain, q8, p8, 4, 3, 5, 0.01_wp, 20, "chain of 4 (4,3,5)")
         call both_paths(error, chain, q8, p8, 2, 1, 3, 0.05_wp, 20, "chain of 4 (2,1,3)")
     end subroutine agrees_with_general

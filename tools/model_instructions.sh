@@ -21,20 +21,8 @@ if "$holosym" --version | grep -q "64-bit real"; then
     suffix=64
 fi
 out="$dir/model_instructions$suffix.csv"
-instructions() {
-    valgrind --tool=callgrind --callgrind-out-file=/dev/null "$holosym" simulate "$@" \
-        --every 1000000000 2>&1 >/dev/null | sed -n 's/.*Collected : *\([0-9]*\).*/\1/p'
-}
-per_step() {  # system-options steps scheme...
-    local options=$1 steps=$2
-    shift 2
-    local a b
-    # shellcheck disable=SC2086
-    a=$(instructions $options "$@" --steps "$steps")
-    # shellcheck disable=SC2086
-    b=$(instructions $options "$@" --steps $((3 * steps)))
-    echo $(( (b - a) / (2 * steps) ))
-}
+# shellcheck source=tools/callgrind_steps.sh
+. tools/callgrind_steps.sh
 echo "precision,model,M,N,G,h,steps,builtin_instructions_per_step,model_instructions_per_step,ratio" > "$out"
 while read -r name builtin model m n g h steps; do
     builtin=${builtin//,/ }  # options of the built-in system, comma-separated below

@@ -37,6 +37,9 @@
 !!   graph otherwise, and refuses the other explicit value.
 !! - `extrapolate` (`.true.` | `.false.`): first guess from the previous step's polynomials
 !!   (both paths).
+!! - `iteration` (`'automatic'` | `'newton'`): the reduced step iterates without the
+!!   Newton matrix where that contracts well (see the component), or always with it;
+!!   the general step always uses the Newton matrix (both values are honoured).
 !!
 !! The other Newton settings (`tolerance`, `stagnation_level`, `max_iterations`,
 !! `max_growth`, `pivot_tolerance`, `contraction_limit`, `jacobian_cost`) act on both
@@ -138,6 +141,9 @@ module holosym_integrator
         integer(int64) :: gradient_evaluations = 0
         !> Calls of hessian or constraint_hessian.
         integer(int64) :: hessian_evaluations = 0
+        !> Newton iterations with the iteration matrix without curvature instead of the
+        !! Newton matrix (`iteration = 'automatic'` on the reduced step).
+        integer(int64) :: approximate_iterations = 0
     end type integrator_stats_t
 
     !> The dense output of the step that `integrate` has just taken: q~, p~ and lambda~ at
@@ -231,6 +237,12 @@ module holosym_integrator
         !> Second derivatives: 'automatic' (the path's own choice: the system's bindings on
         !! the general step), 'user' (the system's bindings) or 'differences' (of gradients).
         character(len=16) :: hessians = "automatic"
+        !> The iteration of the step's equations: 'automatic' (the reduced step iterates
+        !! with a matrix without the second derivatives, its constraint forces from a small
+        !! solve in the multipliers, wherever that contracts by 0.1 per iteration, and with
+        !! the Newton matrix elsewhere; the general step always with the Newton matrix) or
+        !! 'newton' (the Newton matrix throughout).
+        character(len=16) :: iteration = "automatic"
         !> Step results from the last iterate's evaluation updated to first order (saves an
         !! evaluation per step) instead of a new evaluation at the solution.
         logical :: linear_increments = .true.
@@ -620,6 +632,7 @@ contains
 
         call validate(self, sys, q, p, h, local)
         if (local%ok()) call apply_options(self, h, local)
+        if (local%ok()) call forget_unless_continuing(self, q, p)
         if (local%ok()) call solve_step(self, sys, q, p, h, local)
         if (.not. local%ok()) then
             call set_status(status, local%code, local%message)
@@ -630,6 +643,16 @@ contains
         if (present(info)) info = self%last_info
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine integrator_step
+
+    !> A step or run that does not continue the last step depends only on its arguments:
+    !! the factors and habits the iteration learnt in earlier steps are forgotten.
+    subroutine forget_unless_continuing(self, q, p)
+        class(constrained_integrator), intent(inout) :: self
+        real(wp), intent(in) :: q(:), p(:) !! the start state
+        if (continues_last_step(self, q, p)) return
+        call self%workspace%reset()
+        if (self%path%main == STEP_REDUCED) call self%reduced%forget()
+    end subroutine forget_unless_continuing
 
     !> Advance (q, p) by `steps` steps of size h, calling `observer` after each.
     !! Increments are accumulated with compensated summation. On failure (or when the
@@ -667,12 +690,7 @@ contains
             call set_status(status, local%code, local%message)
             return
         end if
-        ! A run that does not continue the last step depends only on its arguments: the
-        ! factors and habits simplified Newton learnt in earlier runs are forgotten.
-        if (.not. continues_last_step(self, q, p)) then
-            call self%workspace%reset()
-            if (self%path%main == STEP_REDUCED) call self%reduced%forget()
-        end if
+        call forget_unless_continuing(self, q, p)
         t0 = 0
         if (present(start_time)) t0 = start_time
         allocate (q_error(size(q)), p_error(size(p)), summand(size(q)), total(size(q)))

@@ -17,7 +17,7 @@ contains
 
     !> Whether every setting of the integrator is in its range; `message` names the first
     !! that is not: the Newton settings (`newton_settings_valid`), 0 < manifold_tolerance < 1
-    !! (finite) and the option strings.
+    !! (finite) and the option strings (linear_solver, jacobian, hessians, iteration).
     module logical function settings_valid(self, message)
         class(constrained_integrator), intent(in) :: self
         character(len=:), allocatable, intent(out) :: message
@@ -54,6 +54,14 @@ contains
             case default
                 message = "hessians must be 'automatic', 'user' or 'differences'; got '" // &
                     trim(self%hessians) // "'"
+            end select
+        end if
+        if (len(message) == 0) then
+            select case (self%iteration)
+            case ("automatic", "newton")
+            case default
+                message = "iteration must be 'automatic' or 'newton'; got '" // &
+                    trim(self%iteration) // "'"
             end select
         end if
         if (len(message) == 0 .and. self%path%main == STEP_REDUCED) then

@@ -41,6 +41,7 @@ module holosym_reduced_scheme
     use holosym_step_scheme, only: step_scheme, scheme_counters_t
     use holosym_factors, only: real64_factors_t
     use holosym_reduced_layout, only: reduced_layout_t
+    use holosym_reduced_multipliers, only: multiplier_solve_t
     use holosym_reduced_kernels_wp, only: tables_wp => reduced_tables, &
         evaluation_wp => reduced_evaluation, allocate_evaluation_wp => allocate_evaluation, &
         gather_wp => gather_unknowns, positions_wp => gauss_positions, &
@@ -102,6 +103,8 @@ module holosym_reduced_scheme
         real(wp), allocatable :: q_shift(:), steps(:), t_base(:), t_shift(:), mu_work(:)
         real(wp), allocatable :: pv_shift(:)
         real(wp), allocatable :: hqq(:, :), hqp(:, :), hpp(:, :), phi_hess(:, :, :)
+        !> The iteration matrix without curvature (`holosym_reduced_multipliers`).
+        type(multiplier_solve_t) :: fixed
         !> User calls of the evaluations (gradients of U, constraint values, Phi values).
         integer :: residuals = 0, lowered_residuals = 0, jacobians = 0, gradients = 0
     contains
@@ -112,6 +115,7 @@ module holosym_reduced_scheme
         procedure :: form_jacobian => reduced_form_jacobian
         procedure :: increments => reduced_increments
         procedure :: linear_dp_change => reduced_linear_dp_change
+        procedure :: multiplier_dp_change => reduced_multiplier_dp_change
         procedure :: dense => reduced_dense
         procedure :: momentum_jump => reduced_momentum_jump
         procedure :: multipliers => reduced_multipliers
@@ -132,6 +136,8 @@ module holosym_reduced_scheme
         procedure :: residual_lowered => equations_residual_lowered
         procedure :: residual_dp => equations_residual_dp
         procedure :: factor_matrix => equations_factor_matrix
+        procedure :: factor_approximate => equations_factor_approximate
+        procedure :: solve_approximate => equations_solve_approximate
         procedure :: unknowns => equations_unknowns
         procedure :: bind => equations_bind
         procedure :: constant_guess => equations_constant_guess
@@ -201,6 +207,7 @@ contains
         self%nx = self%layout%nx
         call build_tables(self)
         call allocate_workspace(self)
+        call self%fixed%init(self%layout, self%tab%st, self%tab%wl, self%mass)
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine reduced_init
 
@@ -622,6 +629,43 @@ contains
         end associate
     end subroutine equations_factor_matrix
 
+    !> The iteration matrix without curvature at the last evaluation (x), factored
+    !! (`holosym_reduced_multipliers`): Phi at the nodes and the derivative of the hidden
+    !! constraint's Phi(q_M) along the end velocity (`end_velocity_curvature`, one
+    !! difference of Phi); `info` > 0 when its multiplier systems are singular.
+    subroutine equations_factor_approximate(self, x, lowered, info, status)
+        class(reduced_equations), intent(inout) :: self
+        real(wp), intent(in) :: x(:)         !! the point of the last evaluation
+        logical, intent(in) :: lowered       !! that evaluation was `residual_dp`
+        integer, intent(out) :: info         !! 0, or > 0: singular
+        type(holosym_status_t), intent(out) :: status !! non-finite values of Phi
+        if (size(x) /= self%scheme%nx) continue
+        info = 0
+        associate (scheme => self%scheme, mm => self%scheme%order_m)
+            if (.not. lowered) then
+                scheme%low%pv = real(scheme%ev%pv, dp)
+                scheme%low%z(:, mm) = real(scheme%ev%z(:, mm), dp)
+                scheme%low%d(:, mm) = real(scheme%ev%d(:, mm), dp)
+            end if
+            call set_status(status, HOLOSYM_SUCCESS, "")
+            if (scheme%m > 0) call end_velocity_curvature(scheme, status)
+            if (.not. status%ok()) return
+            if (.not. all(ieee_is_finite(scheme%kv))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "non-finite derivative " // &
+                    "of Phi along the end velocity")
+                return
+            end if
+            call scheme%fixed%factor(scheme%h, scheme%low%pv, scheme%kv, info)
+        end associate
+    end subroutine equations_factor_approximate
+
+    !> The correction of the iteration matrix without curvature for the residual f.
+    subroutine equations_solve_approximate(self, f)
+        class(reduced_equations), intent(inout) :: self
+        real(dp), intent(inout) :: f(:)      !! residual in, correction out
+        call self%scheme%fixed%solve(self%scheme%layout, f)
+    end subroutine equations_solve_approximate
+
     !> The Newton matrix at x as a dense matrix (for `newton_solve`): the residual at x,
     !! then `form_jacobian` from that evaluation, its compressed rows expanded.
     subroutine equations_jacobian(self, x, jac, status)
@@ -702,20 +746,28 @@ contains
                 end if
                 if (.not. status%ok()) return
             end do
-            ! v = M^-1 D_M; K(l, c) = (phi_l'' v)_c = directional derivative of Phi(l, c).
-            self%g_work = real(low%d(:, self%order_m), wp) * self%inv_mass
-            self%q_work = self%qa + real(low%z(:, self%order_m), wp)
-            if (self%layout%sparse) then
-                call direction_differences(self, self%q_work, self%g_work, self%kv, status)
-            else
-                call dense_direction(self, self%q_work, self%g_work, self%kv, status)
-            end if
         end associate
+        call end_velocity_curvature(self, status)
         if (.not. status%ok()) return
         if (.not. all(ieee_is_finite(self%hu)) .or. .not. all(ieee_is_finite(self%lv)) .or. &
             .not. all(ieee_is_finite(self%kv))) call set_status(status, &
             HOLOSYM_NONFINITE_VALUE, "non-finite second derivatives of U or phi")
     end subroutine second_derivatives
+
+    !> K = d(Phi(q) v)/dq at q_M with v = M^-1 D_M (kv, on Phi's pattern), from the real64
+    !! evaluation's z_M and D_M: K(l, c) = (phi_l'' v)_c, the directional derivative of
+    !! Phi(l, c) along v (a difference of Phi, or the system's `constraint_hessian`).
+    subroutine end_velocity_curvature(self, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        type(holosym_status_t), intent(out) :: status
+        self%g_work = real(self%low%d(:, self%order_m), wp) * self%inv_mass
+        self%q_work = self%qa + real(self%low%z(:, self%order_m), wp)
+        if (self%layout%sparse) then
+            call direction_differences(self, self%q_work, self%g_work, self%kv, status)
+        else
+            call dense_direction(self, self%q_work, self%g_work, self%kv, status)
+        end if
+    end subroutine end_velocity_curvature
 
     !> Hessian of U at q from the system's `hessian` (d2H/dq2), on the coupling pattern;
     !! HOLOSYM_NONFINITE_VALUE when any of its three blocks is not finite (the two not used
@@ -1076,6 +1128,28 @@ contains
             change(r) = real(total, wp)
         end do
     end subroutine reduced_linear_dp_change
+
+    !> First-order change of p_b - p_a for a change `delta` of the unknowns from the
+    !! evaluation point, without curvature: - sum_i wl_i Phi_i^T delta mu_i with Phi at
+    !! the nodes of the iteration matrix without curvature (its error, from the left-out
+    !! second derivatives, is of the size of the error that matrix leaves in the unknowns).
+    subroutine reduced_multiplier_dp_change(self, delta, change)
+        class(reduced_scheme_t), intent(in) :: self
+        real(dp), intent(in) :: delta(:)   !! change of the unknowns
+        real(wp), intent(out) :: change(:) !! change of p_b - p_a (n)
+        real(dp) :: total(self%n)
+        integer :: i, e
+        total = 0
+        associate (lay => self%layout)
+            do i = 0, self%order_m
+                do e = 1, size(lay%phi_rows)
+                    total(lay%phi_cols(e)) = total(lay%phi_cols(e)) - self%tab%wl(i) * &
+                        self%fixed%pv(e, i) * delta(lay%mu_col(lay%phi_rows(e), i))
+                end do
+            end do
+        end associate
+        change = real(total, wp)
+    end subroutine reduced_multiplier_dp_change
 
     !> q~(tau), p~(tau), lambda~(tau) of a solved step with unknowns x from (qa, pa), h.
     !! p~ is the momentum polynomial: p_j = (1/h) M sum_k E(j, k) z_k.

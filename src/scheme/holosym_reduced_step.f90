@@ -7,6 +7,9 @@
 !! constant guess, and its results. The last correction is applied without a confirming
 !! residual when the contraction rate says the result is within the tolerance: the step
 !! results are then updated to first order through the difference matrix of p_b - p_a.
+!! With `approximate`, the solve iterates first without the Newton matrix: with the
+!! scheme's iteration matrix without curvature, solved through the multipliers
+!! (`holosym_reduced_multipliers`), where it contracts well.
 module holosym_reduced_step
     use holosym_kinds, only: wp, dp
     use holosym_status_codes, only: holosym_status_t, is_system_fault
@@ -25,6 +28,7 @@ module holosym_reduced_step
         integer :: residuals = 0             !! working-precision residuals
         integer :: lowered_residuals = 0     !! real64 residuals (including the Jacobians')
         integer :: factorizations = 0        !! Newton matrices formed and factored
+        integer :: approximate = 0           !! iterations without the Newton matrix
         real(wp) :: pivot_ratio = 0          !! of the factors in use
     end type reduced_report_t
 
@@ -85,12 +89,13 @@ contains
     !! to the state's size, `stagnation` is the round-off floor of the corrections, and
     !! `max_iterations`, `max_growth`, `contraction_limit`, `jacobian_cost`,
     !! `pivot_tolerance` act as in `newton_solve`; `continues` starts from the previous
-    !! accepted step's polynomials (when its h is the same). On failure the kept factors
+    !! accepted step's polynomials (when its h is the same); `approximate` iterates first
+    !! without the Newton matrix where that contracts (default: no). On failure the kept factors
     !! and the previous step are dropped. Codes: HOLOSYM_SINGULAR_MATRIX,
     !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED (also equations that overflow),
     !! HOLOSYM_NONFINITE_VALUE (from the system's procedures).
     subroutine step_solve(self, sys, q, p, h, settings, stagnation, continues, dq, dpb, &
-                          report, status)
+                          report, status, approximate)
         class(reduced_step_t), intent(inout), target :: self
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
@@ -100,6 +105,7 @@ contains
         real(wp), intent(out) :: dq(:), dpb(:)
         type(reduced_report_t), intent(out) :: report
         type(holosym_status_t), intent(out) :: status
+        logical, intent(in), optional :: approximate !! without the Newton matrix first
         type(reduced_equations) :: equations
         type(kept_report_t) :: work
         real(wp) :: scale
@@ -120,7 +126,7 @@ contains
             self%x = 0
         end if
         call kept_newton_solve(equations, self%x, self%newton, settings, scale, stagnation, &
-                               work, status)
+                               work, status, approximate=approximate)
         if (.not. status%ok() .and. .not. is_system_fault(status%code)) then
             ! Kept factors may be stale, or the extrapolation poor: fresh factors from the
             ! constant guess.
@@ -132,6 +138,7 @@ contains
         end if
         report%iterations = work%iterations
         report%factorizations = work%factorizations
+        report%approximate = work%approximate
         report%residuals = self%scheme%residuals - residuals0
         report%lowered_residuals = self%scheme%lowered_residuals - lowered0
         report%pivot_ratio = real(self%newton%factors%pivot_ratio, wp)
@@ -146,12 +153,17 @@ contains
 
     !> The step's results, accepted without a confirming residual: from the evaluation at
     !! the last iterate, updated to first order across the last correction (a tolerance
-    !! the real64 phase meets needs no working-precision residual at all).
+    !! the real64 phase meets needs no working-precision residual at all), through the
+    !! matrix that gave it.
     subroutine finish(self, dq, dpb)
         class(reduced_step_t), intent(inout) :: self
         real(wp), intent(out) :: dq(:), dpb(:)
         call self%scheme%increments(dq, dpb, self%newton%ended_lowered)
-        call self%scheme%linear_dp_change(-self%newton%delta, self%dpb_change)
+        if (self%newton%ended_approximate) then
+            call self%scheme%multiplier_dp_change(-self%newton%delta, self%dpb_change)
+        else
+            call self%scheme%linear_dp_change(-self%newton%delta, self%dpb_change)
+        end if
         dq = self%x(self%scheme%layout%z_col(:, self%scheme%order_m))
         dpb = dpb + self%dpb_change
     end subroutine finish

@@ -11,7 +11,16 @@
 !! - the last correction is applied without a confirming residual when the contraction
 !!   rate says the result is within the tolerance: the caller then updates what it derives
 !!   from the last evaluation to first order across `state%delta` (`state%ended_lowered`
-!!   says which evaluation that was).
+!!   says which evaluation that was);
+!! - with `approximate`, a solve iterates first with the system's approximate matrix
+!!   (`factor_approximate`, formed afresh at each solve's first guess: cheap, no second
+!!   derivatives), as long as it contracts by `approximate_contraction_limit` per
+!!   iteration; beyond, it is formed again at the current iterate once, and then replaced
+!!   by the Newton matrix at the current iterate; at the
+!!   end of the real64 phase the Newton matrix replaces it when that pays
+!!   (`renewal_pays`, as for kept factors). After a switch for weak contraction, solves
+!!   use the Newton matrix and try the approximate one every `retry_approximate_every`
+!!   solves (`state%ended_approximate` says which matrix gave the last correction).
 !! Its decisions and constants are those of `holosym_newton_policy`, shared with
 !! `newton_solve`; the settings are `newton_settings_t`'s.
 module holosym_kept_newton
@@ -26,7 +35,9 @@ module holosym_kept_newton
         jacobian_cost_of, fits_real64
     use holosym_newton_policy, only: next_action, predicted_within, renewal_pays, rate_margin, &
         retry_kept_every, banded_contraction_limit, banded_jacobian_cost, &
-        banded_phase_tolerance, banded_phase_floor, remeasure_every, ACTION_ITERATE, &
+        banded_phase_tolerance, banded_phase_floor, remeasure_every, &
+        approximate_contraction_limit, retry_approximate_every, approximate_tolerance_factor, &
+        ACTION_ITERATE, &
         ACTION_CONVERGED, ACTION_REFACTOR, ACTION_DIVERGED
     implicit none
     private
@@ -41,6 +52,10 @@ module holosym_kept_newton
         !! again every `retry_kept_every` solves).
         logical :: prefer_fresh = .false.
         integer :: fresh_streak = 0
+        !> The approximate matrix contracted too weakly: solves use the Newton matrix (the
+        !! approximate one is tried again every `retry_approximate_every` solves).
+        logical :: prefer_newton = .false.
+        integer :: newton_streak = 0
         !> Contraction of factors formed at the end of the real64 phase, as measured by the
         !! working-precision corrections (1: not measured yet). Lets a solve accept its first
         !! working-precision correction when that is predicted to meet the tolerance.
@@ -50,6 +65,8 @@ module holosym_kept_newton
         !! real64 residual: what the caller updates its results across.
         real(dp), allocatable :: delta(:)
         logical :: ended_lowered = .false.
+        !> The last correction came from the approximate matrix (else the Newton matrix).
+        logical :: ended_approximate = .false.
         !> The iterate at which the Newton matrix was last found singular during the last
         !! solve (valid when `have_singular_x`): where the equations may be dependent.
         logical :: have_singular_x = .false.
@@ -69,6 +86,7 @@ module holosym_kept_newton
     type :: kept_report_t
         integer :: iterations = 0            !! Newton iterations (residuals solved with)
         integer :: factorizations = 0        !! Newton matrices formed and factored
+        integer :: approximate = 0           !! iterations with the approximate matrix
     end type kept_report_t
 
     !> What one solve carries between its iterations and the procedures they call.
@@ -84,6 +102,10 @@ module holosym_kept_newton
         logical :: renewed = .false.
         !> Contraction of the kept factors measured in the real64 phase (1: none).
         real(wp) :: low_rate = 1
+        !> The corrections come from the system's approximate matrix, and it has been
+        !! formed again in this solve after a poor contraction.
+        logical :: approximate = .false.
+        logical :: approximate_renewed = .false.
     end type solve_t
 
 contains
@@ -108,6 +130,8 @@ contains
         self%factors%factored = .false.
         self%prefer_fresh = .false.
         self%fresh_streak = 0
+        self%prefer_newton = .false.
+        self%newton_streak = 0
         self%learned_rate = 1
         self%steps_since_measured = 0
     end subroutine kept_forget
@@ -127,9 +151,11 @@ contains
     !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED (also an iterate or residual
     !! beyond the range of real64), or a code of the system's evaluations; x is then the
     !! last iterate. `retry`: this solve retries a failed one (with factors the caller
-    !! dropped): it does not count as a solve in the habit of preferring fresh factors.
+    !! dropped): it does not count as a solve in the habit of preferring fresh factors, and
+    !! uses the Newton matrix. `approximate`: start with the system's approximate matrix
+    !! (see the module's description; default: no).
     subroutine kept_newton_solve(system, x, state, settings, scale, stagnation, report, &
-                                 status, retry)
+                                 status, retry, approximate)
         class(nonlinear_system), intent(inout) :: system !! the equations
         real(wp), intent(inout) :: x(:)                 !! first guess in, solution out
         type(kept_newton_t), intent(inout) :: state     !! kept factors and workspace
@@ -139,6 +165,7 @@ contains
         type(kept_report_t), intent(inout) :: report    !! work, added to
         type(holosym_status_t), intent(out) :: status   !! outcome
         logical, intent(in), optional :: retry          !! a retry (default: no)
+        logical, intent(in), optional :: approximate    !! approximate matrix first
         type(solve_t) :: run
         logical :: first_try
         run%settings = settings
@@ -150,6 +177,12 @@ contains
         if (state%prefer_fresh .and. first_try) then
             state%fresh_streak = state%fresh_streak + 1
             if (mod(state%fresh_streak, retry_kept_every) /= 0) state%factors%factored = .false.
+        end if
+        run%approximate = .false.
+        if (present(approximate)) run%approximate = approximate .and. first_try
+        if (run%approximate .and. state%prefer_newton) then
+            state%newton_streak = state%newton_streak + 1
+            run%approximate = mod(state%newton_streak, retry_approximate_every) == 0
         end if
         call iterate(system, x, state, run, report, status)
     end subroutine kept_newton_solve
@@ -163,6 +196,7 @@ contains
         type(kept_report_t), intent(inout) :: report
         type(holosym_status_t), intent(out) :: status
         real(wp) :: correction, previous, target, floor, rate, last_rate, limit
+        real(wp) :: approximate_limit
         integer :: iter, growth, action
         logical :: lowered, fresh, kept, need_factors
 
@@ -172,13 +206,14 @@ contains
         fresh = .false.
         rate = 1
         last_rate = 0
-        kept = state%factors%factored
-        need_factors = .not. state%factors%factored
+        kept = state%factors%factored .and. .not. run%approximate
+        need_factors = run%approximate .or. .not. state%factors%factored
         run%renewed = .false.
         run%watch = .false.
         run%first = 0
         run%low_rate = 1
         limit = contraction_limit_of(run%settings, banded_contraction_limit)
+        approximate_limit = contraction_limit_of(run%settings, approximate_contraction_limit)
         do iter = 1, run%settings%max_iterations
             report%iterations = report%iterations + 1
             ! The residual at x; new factors, when due, from the same evaluation.
@@ -194,25 +229,49 @@ contains
             end if
             target = run%settings%tolerance
             floor = run%stagnation
+            if (run%approximate) target = target * approximate_tolerance_factor
             if (lowered) then
                 target = banded_phase_tolerance
                 floor = banded_phase_floor
             end if
-            correction = newton_correction(state, run%scale)
-            call next_action(correction, previous, last_rate, target, floor, fresh, &
-                             run%settings%max_growth, limit, growth, action)
+            correction = newton_correction(system, state, run)
+            if (run%approximate) then
+                report%approximate = report%approximate + 1
+                call approximate_action(correction, previous, last_rate, target, floor, &
+                                        run%settings%max_growth, approximate_limit, growth, &
+                                        action)
+            else
+                call next_action(correction, previous, last_rate, target, floor, fresh, &
+                                 run%settings%max_growth, limit, growth, action)
+            end if
             if (run%watch) call first_corrections(state, run, correction, action)
             if (action == ACTION_REFACTOR) then
-                ! Kept factors contract poorly: fresh ones at x, same residual.
+                ! Kept factors contract poorly: fresh ones at x, same residual. The
+                ! approximate matrix is formed again at x once (the first guess may be far,
+                ! e.g. the constant one), then gives way to the Newton matrix.
                 if (kept) state%prefer_fresh = .true.
+                if (run%approximate) then
+                    if (run%approximate_renewed) then
+                        state%prefer_newton = .true.
+                        run%approximate = .false.
+                        growth = 0
+                    end if
+                    run%approximate_renewed = .true.
+                end if
                 call refactor(system, x, state, run, lowered, report, status)
                 if (.not. status%ok()) return
                 fresh = .true.
                 previous = huge(1.0_wp)
                 last_rate = 0
-                correction = newton_correction(state, run%scale)
-                call next_action(correction, previous, last_rate, target, floor, fresh, &
-                                 run%settings%max_growth, limit, growth, action)
+                correction = newton_correction(system, state, run)
+                if (run%approximate) then
+                    call approximate_action(correction, previous, last_rate, target, floor, &
+                                            run%settings%max_growth, approximate_limit, &
+                                            growth, action)
+                else
+                    call next_action(correction, previous, last_rate, target, floor, fresh, &
+                                     run%settings%max_growth, limit, growth, action)
+                end if
             end if
             select case (action)
             case (ACTION_DIVERGED)
@@ -222,14 +281,17 @@ contains
                 return
             case (ACTION_CONVERGED)
                 x = x - real(state%delta, wp)
+                if (run%approximate) state%prefer_newton = .false.
                 if (.not. lowered .or. run%settings%tolerance >= banded_phase_tolerance) then
                     state%ended_lowered = lowered
+                    state%ended_approximate = run%approximate
                     return
                 end if
                 ! The end of the real64 phase.
                 lowered = .false.
                 if (previous < huge(1.0_wp)) rate = correction / previous
                 need_factors = end_real64_phase(run, rate, correction, previous)
+                if (need_factors) run%approximate = .false.
                 previous = huge(1.0_wp)
                 last_rate = 0
                 cycle
@@ -301,13 +363,16 @@ contains
     !> The first working-precision corrections: the first is accepted when a known
     !! contraction predicts the tolerance met: that of the real64 phase when its factors
     !! are kept, or `learned_rate` for factors renewed at its end (the second correction
-    !! after a renewal measures it again; every `remeasure_every`-th solve does so).
+    !! after a renewal measures it again; every `remeasure_every`-th solve does so). The
+    !! approximate matrix's corrections meet `approximate_tolerance_factor` of it.
     subroutine first_corrections(state, run, correction, action)
         type(kept_newton_t), intent(inout) :: state
         type(solve_t), intent(inout) :: run
         real(wp), intent(in) :: correction
         integer, intent(inout) :: action
-        real(wp) :: known
+        real(wp) :: known, tolerance
+        tolerance = run%settings%tolerance
+        if (run%approximate) tolerance = tolerance * approximate_tolerance_factor
         if (run%first == 0) then
             run%first = correction
             if (run%renewed) then
@@ -318,7 +383,7 @@ contains
                 known = run%low_rate
             end if
             if (action == ACTION_ITERATE .and. predicted_within(known, correction, &
-                    run%settings%tolerance, rate_margin)) action = ACTION_CONVERGED
+                    tolerance, rate_margin)) action = ACTION_CONVERGED
         else if (run%renewed) then
             if (run%first > 0) state%learned_rate = correction / run%first
             state%steps_since_measured = 0
@@ -327,27 +392,61 @@ contains
         if (run%first /= correction) run%watch = run%renewed
     end subroutine first_corrections
 
-    !> delta = the Newton correction for the residual f_low; its size relative to the
-    !! state (`scale`).
-    real(wp) function newton_correction(state, scale) result(correction)
+    !> delta = the correction for the residual f_low (of the Newton factors, or of the
+    !! system's approximate matrix); its size relative to the state (`run%scale`).
+    real(wp) function newton_correction(system, state, run) result(correction)
+        class(nonlinear_system), intent(inout) :: system
         type(kept_newton_t), intent(inout) :: state
-        real(wp), intent(in) :: scale
+        type(solve_t), intent(in) :: run
         state%delta = state%f_low
-        call state%factors%solve(state%delta)
-        correction = maxval(abs(state%delta)) / scale
+        if (run%approximate) then
+            call system%solve_approximate(state%delta)
+        else
+            call state%factors%solve(state%delta)
+        end if
+        correction = maxval(abs(state%delta)) / run%scale
     end function newton_correction
 
+    !> What to do after a correction of the approximate matrix: as `next_action` for
+    !! factors formed in this solve, except that a contraction weaker than `limit`
+    !! (`approximate_contraction_limit`, or the settings' `contraction_limit` when given)
+    !! or a non-finite correction above the round-off floor calls for the Newton matrix
+    !! (REFACTOR) instead of more iterations.
+    pure subroutine approximate_action(correction, previous, last_rate, target, floor, &
+                                       max_growth, limit, growth, action)
+        real(wp), intent(in) :: correction, previous, last_rate, target, floor, limit
+        integer, intent(in) :: max_growth
+        integer, intent(inout) :: growth
+        integer, intent(out) :: action
+        call next_action(correction, previous, last_rate, target, floor, .true., &
+                         max_growth, 1.0_wp, growth, action)
+        if (action == ACTION_CONVERGED) return
+        if (.not. ieee_is_finite(correction)) then
+            action = ACTION_REFACTOR
+        else if (previous < huge(1.0_wp) .and. correction > floor) then
+            if (correction > limit * previous) action = ACTION_REFACTOR
+        end if
+    end subroutine approximate_action
+
     !> Form and factor the Newton matrix at x from the evaluation just made there (real64
-    !! or working precision).
+    !! or working precision), or the approximate matrix in approximate mode (leaving that
+    !! mode when the system has none or it is singular).
     subroutine refactor(system, x, state, run, lowered, report, status)
         class(nonlinear_system), intent(inout) :: system
         real(wp), intent(in) :: x(:)
         type(kept_newton_t), intent(inout) :: state
-        type(solve_t), intent(in) :: run
+        type(solve_t), intent(inout) :: run
         logical, intent(in) :: lowered
         type(kept_report_t), intent(inout) :: report
         type(holosym_status_t), intent(out) :: status
         integer :: info
+        if (run%approximate) then
+            call system%factor_approximate(x, lowered, info, status)
+            if (.not. status%ok()) return
+            if (info == 0) return
+            ! None, or singular (dependent constraints): the Newton matrix says which.
+            run%approximate = .false.
+        end if
         call system%factor_matrix(x, lowered, state%factors, &
                                   real(run%settings%pivot_tolerance, dp), info, status)
         if (.not. status%ok()) return

@@ -76,6 +76,15 @@ module holosym_newton
         !! `jacobian_lowered`, factored dense). Systems with a sparse or banded Newton
         !! matrix form it in their pattern from what the evaluation left behind.
         procedure :: factor_matrix => default_factor_matrix
+        !> An approximation of the Newton matrix that is much cheaper to form, factor and
+        !! solve with, at x (the point of the last evaluation, as for `factor_matrix`),
+        !! for the iteration without the Newton matrix of `kept_newton_solve` (the
+        !! contraction it achieves decides whether it is used); `info` < 0: the system
+        !! has none (the default), > 0: it is singular.
+        procedure :: factor_approximate => default_factor_approximate
+        !> Replace a residual (real64) by the correction of the approximate matrix last
+        !! formed by `factor_approximate` (default: unchanged; never called then).
+        procedure :: solve_approximate => default_solve_approximate
     end type nonlinear_system
 
     !> Knobs of Newton's method; the defaults derive from epsilon(1.0_wp).
@@ -98,7 +107,9 @@ module holosym_newton
         !> Simplified Newton refactors at the current iterate when a correction is larger
         !! than this fraction of the previous one; 0 (the default) means the solver's own
         !! value (`dense_contraction_limit` 0.05 here, `banded_contraction_limit` 0.1 in the
-        !! reduced step; `holosym_newton_policy`).
+        !! reduced step; `holosym_newton_policy`). The reduced step's iteration without the
+        !! Newton matrix gives way to the Newton matrix beyond the same value when one is
+        !! given (`approximate_contraction_limit` 0.1 otherwise).
         real(wp) :: contraction_limit = 0
         !> Simplified Newton: cost of a Jacobian and its factorisation, in residual
         !! evaluations; refactoring is chosen when it is predicted to save more than this.
@@ -727,6 +738,25 @@ contains
         end if
         call factors%factor_dense(jac, info, pivot_tolerance)
     end subroutine default_factor_matrix
+
+    !> No approximate Newton matrix (`info` = -1).
+    subroutine default_factor_approximate(self, x, lowered, info, status)
+        class(nonlinear_system), intent(inout) :: self !! the system
+        real(wp), intent(in) :: x(:)         !! the point of the last evaluation
+        logical, intent(in) :: lowered       !! that evaluation was `residual_dp`
+        integer, intent(out) :: info         !! -1: none
+        type(holosym_status_t), intent(out) :: status !! success
+        if (lowered .or. size(x) < 0) continue
+        info = -1
+        call set_status(status, HOLOSYM_SUCCESS, "")
+    end subroutine default_factor_approximate
+
+    !> No approximate Newton matrix: the residual is left as it is.
+    subroutine default_solve_approximate(self, f)
+        class(nonlinear_system), intent(inout) :: self !! the system
+        real(dp), intent(inout) :: f(:)      !! residual in, correction out
+        if (size(f) < 0) continue
+    end subroutine default_solve_approximate
 
     !> Scale each row of a working-precision matrix by a power of two so that its largest
     !! entry lies in [1, 2): the pivot test then does not depend on the equations' units,

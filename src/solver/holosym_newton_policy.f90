@@ -35,6 +35,22 @@ module holosym_newton_policy
     !> ... and banded or small real64 factors (the reduced step's) beyond this one: they
     !! are cheap to renew, but each renewal also costs a real64 Newton matrix.
     real(wp), parameter, public :: banded_contraction_limit = 0.1_wp
+    !> The iteration without the Newton matrix (an approximate matrix the system offers,
+    !! `factor_approximate`) is kept while it contracts by this much per iteration, and
+    !! replaced by the Newton matrix beyond: at 0.1 per iteration six digits take six
+    !! cheap corrections, about what forming and factoring a Newton matrix and two
+    !! corrections with it cost in real64 (the matrix costs several residuals there).
+    real(wp), parameter, public :: approximate_contraction_limit = 0.1_wp
+    !> A solve that ends with corrections of the approximate matrix meets this fraction of
+    !! the tolerance: the step's results are updated across the last correction without
+    !! the curvature terms, an error of (rate x correction) with the same sign step after
+    !! step, which makes conserved quantities drift (the spherical pendulum's L_z by
+    !! 0.5 eps sqrt(k) at 8 eps, against 0.04 for the Newton matrix, whose first-order
+    !! update is exact) unless it lies well below the round-off of a step.
+    real(wp), parameter, public :: approximate_tolerance_factor = 1.0_wp / 64
+    !> After the approximate matrix proved too weak, solves use the Newton matrix; every
+    !! this many solves the approximate one is tried again.
+    integer, parameter, public :: retry_approximate_every = 32
     !> Forming and factoring a dense Newton matrix costs about two working-precision
     !! residuals on the example systems (the default `jacobian_cost` of `newton_solve`) ...
     real(wp), parameter, public :: dense_jacobian_cost = 2
