@@ -18,7 +18,7 @@
 !!     max |(H - H0)/H0|   4.621E-09
 !!     max |phi|           4.333E-34
 !!     max |Phi H_p|       1.252E-33
-!!     Newton iterations per step  5.71
+!!     Newton iterations per step  6.21
 program example_double_pendulum_start
     use holosym, only: wp, pendulum_chain, constrained_integrator, trajectory_writer, &
         state_from_velocities, projection_report_t, manifold_residuals, holosym_status_t

@@ -8,7 +8,7 @@
 !!     p(10)          = -0.611141803597033054  0.242210762453118049 -0.072743542933220399
 !!     max |H/H0 - 1| = 1.011E-11
 !!     max |phi|      = 3.852E-34
-!!     Newton iterations in the last step: 5
+!!     Newton iterations in the last step: 6
 program quickstart
     use holosym, only: wp, spherical_pendulum, constrained_integrator, step_info_t, &
         holosym_status_t

@@ -15,7 +15,7 @@
 !!     max |(H - H0)/H0| over 200 s (H0 = -0.4696):    5.365E-08
 !!     max |phi| at the displacement nodes:            3.852E-34
 !!     max |Phi H_p| at the step ends:                 5.537E-34
-!!     Newton iterations per step:                          5.70
+!!     Newton iterations per step:                          7.00
 program example_spherical_pendulum
     use holosym, only: wp, spherical_pendulum, constrained_integrator, step_info_t, &
         holosym_status_t
