@@ -252,6 +252,28 @@ int holosym_lyapunov_spectrum(holosym_integrator *integrator, holosym_real *q,
                               holosym_real *exponents, holosym_real *megno,
                               int *steps_done);
 
+/* One step of *h in place and the derivative of the step map (restricted to the
+ * constraint manifold) applied to k tangent vectors at the start state
+ * (docs/events.md): vector j (0-based) is (dq + j n, dp + j n), n reals each, and
+ * becomes its image at the end state. HOLOSYM_OFF_MANIFOLD for a vector off the tangent
+ * space (holosym_project_tangent projects it); q, p, dq, dp unchanged on failure. Reals
+ * through pointers in both builds. */
+int holosym_step_tangent(holosym_integrator *integrator, holosym_real *q, holosym_real *p,
+                         const holosym_real *h, int k, holosym_real *dq, holosym_real *dp);
+
+/* An orthonormal basis of the tangent space of the constraint manifold at (q, p): its
+ * dimension 2(n - m) into *count (may be NULL), vector j into (dq + j n, dp + j n);
+ * dq and dp hold n 2(n - m) reals each. Unchanged on failure. */
+int holosym_tangent_basis(holosym_integrator *integrator, const holosym_real *q,
+                          const holosym_real *p, holosym_real *dq, holosym_real *dp,
+                          int *count);
+
+/* Project k vectors (dq + j n, dp + j n) orthogonally onto the tangent space at (q, p)
+ * in place; unchanged on failure. */
+int holosym_project_tangent(holosym_integrator *integrator, const holosym_real *q,
+                            const holosym_real *p, int k, holosym_real *dq,
+                            holosym_real *dp);
+
 #ifdef __cplusplus
 }
 #endif

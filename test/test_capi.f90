@@ -11,7 +11,8 @@ module test_capi
     use holosym_status_codes, only: real_str, int_str, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, &
         HOLOSYM_INVALID_DIMENSION, HOLOSYM_INVALID_ORDER, HOLOSYM_INVALID_STEP_SIZE, &
         HOLOSYM_NOT_INITIALIZED, HOLOSYM_OUTSIDE_DOMAIN, HOLOSYM_USER_ABORT, &
-        HOLOSYM_INVALID_MODEL, HOLOSYM_NONFINITE_VALUE, holosym_status_t, status_code_table
+        HOLOSYM_INVALID_MODEL, HOLOSYM_NONFINITE_VALUE, HOLOSYM_OFF_MANIFOLD, holosym_status_t, &
+        status_code_table
     use holosym_integrator, only: constrained_integrator
     use holosym_models, only: planar_pendulum
     use holosym_c, only: holosym_system_c, c_real, holosym_create, holosym_destroy, &
@@ -22,7 +23,9 @@ module test_capi
         holosym_step_p, holosym_integrate_p, holosym_dense_output_p, &
         holosym_model_set_parameter_p, holosym_energy, holosym_constraint, &
         holosym_plan_accuracy, name_parameter_c, name_coordinate_c, name_momentum_c, &
-        holosym_integrate_events, holosym_lyapunov_spectrum
+        holosym_integrate_events, holosym_lyapunov_spectrum, holosym_step_tangent, &
+        holosym_tangent_basis, holosym_project_tangent
+    use holosym_tangent_space, only: tangent_basis, tangent_residual, tangent_tolerance
     use holosym_events, only: event_set, event_t, integrate_events
     use holosym_lyapunov, only: lyapunov_spectrum, lyapunov_result_t
     use holosym_formula_model, only: formula_model, load_model
@@ -58,7 +61,8 @@ contains
             new_test("reals_through_pointers_match_values", pointer_calls), &
             new_test("plan_accuracy_as_in_fortran", plan_accuracy), &
             new_test("events_as_in_fortran", events_through_c), &
-            new_test("lyapunov_as_in_fortran", lyapunov_through_c)]
+            new_test("lyapunov_as_in_fortran", lyapunov_through_c), &
+            new_test("tangent_map_as_in_fortran", tangent_through_c)]
     end function capi_tests
 
     ! ---------------------------------------------------------------- C callbacks
@@ -969,6 +973,86 @@ contains
             real_str(real(exponents(1), wp)) // ", in Fortran " // real_str(fortran%exponents(1)))
         call holosym_destroy(handle)
     end subroutine lyapunov_through_c
+
+    !> The tangent calls on the planar pendulum of C callbacks: the basis of the tangent
+    !! space and 20 steps of the tangent map as in Fortran on the built-in twin (general
+    !! scheme, as for callbacks), the symplectic form of the two images kept to round-off,
+    !! a vector off the tangent space refused with everything unchanged and accepted once
+    !! projected, k = 0 and NULL vectors refused.
+    subroutine tangent_through_c(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(c_ptr) :: handle
+        type(planar_pendulum) :: sys
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        type(holosym_system_c), target :: system
+        real(c_real), target :: q(2), p(2), h, dq(2, 2), dp(2, 2), rq(2), rp(2), q0(2), p0(2)
+        real(wp) :: qf(2), pf(2), dqf(2, 2), dpf(2, 2), form0, agreement
+        integer(c_int), target :: count
+        integer :: k, nf
+        agreement = max(1.0e-29_wp, 1.0e4_wp * eps)
+        sys = planar_pendulum()
+        call sys%initial_state(qf, pf)
+        system = pendulum_struct()
+        handle = holosym_create(c_loc(system), 4_c_int, 3_c_int, 5_c_int)
+        q = qf
+        p = pf
+        h = 0.125_c_real
+        call check_status_code(error, int(holosym_tangent_basis(handle, c_loc(q), c_loc(p), &
+            c_loc(dq), c_loc(dp), c_loc(count))), HOLOSYM_SUCCESS, message_of(handle))
+        if (allocated(error)) return
+        call tangent_basis(sys, qf, pf, dqf, dpf, nf, status)
+        call check(error, count == 2 .and. nf == 2 .and. &
+            max(maxval(abs(real(dq, wp) - dqf)), maxval(abs(real(dp, wp) - dpf))) <= agreement, &
+            "the basis through C differs from tangent_basis")
+        if (allocated(error)) return
+        form0 = symplectic_form(real(dq, wp), real(dp, wp))
+        call check(error, abs(form0) > 0.1_wp, "the basis spans no symplectic pair")
+        if (allocated(error)) return
+        ! A radial direction leaves the circle: refused, nothing moves.
+        rq = q
+        rp = 0
+        q0 = q
+        p0 = p
+        call check_status_code(error, int(holosym_step_tangent(handle, c_loc(q), c_loc(p), &
+            c_loc(h), 1_c_int, c_loc(rq), c_loc(rp))), HOLOSYM_OFF_MANIFOLD, "radial vector")
+        if (allocated(error)) return
+        call check(error, all(q == q0) .and. all(p == p0) .and. all(rq == q0) .and. &
+            all(rp == 0), "a refused call changed its arguments")
+        if (allocated(error)) return
+        call check_status_code(error, int(holosym_project_tangent(handle, c_loc(q), c_loc(p), &
+            1_c_int, c_loc(rq), c_loc(rp))), HOLOSYM_SUCCESS, message_of(handle))
+        if (allocated(error)) return
+        call check(error, tangent_residual(sys, qf, pf, real(rq, wp), real(rp, wp)) <= &
+            tangent_tolerance, "the projected vector is not tangent")
+        call check_status_code(error, int(holosym_step_tangent(handle, c_loc(q), c_loc(p), &
+            c_loc(h), 0_c_int, c_loc(dq), c_loc(dp))), HOLOSYM_INVALID_ARGUMENT, "k = 0")
+        call check_status_code(error, int(holosym_step_tangent(handle, c_loc(q), c_loc(p), &
+            c_loc(h), 2_c_int, c_null_ptr, c_loc(dp))), HOLOSYM_INVALID_ARGUMENT, "NULL dq")
+        if (allocated(error)) return
+        integ%structured = .false.
+        call integ%init(sys, 4, 3, 5, status)
+        do k = 1, 20
+            call check_status_code(error, int(holosym_step_tangent(handle, c_loc(q), c_loc(p), &
+                c_loc(h), 2_c_int, c_loc(dq), c_loc(dp))), HOLOSYM_SUCCESS, message_of(handle))
+            if (allocated(error)) return
+            call integ%step_tangent(sys, qf, pf, 0.125_wp, dqf, dpf, status=status)
+        end do
+        call check(error, status%ok() .and. max(maxval(abs(real(dq, wp) - dqf)), &
+            maxval(abs(real(dp, wp) - dpf)), maxval(abs(real(q, wp) - qf))) <= agreement, &
+            "the tangent map through C differs from step_tangent")
+        if (allocated(error)) return
+        call check(error, abs(symplectic_form(real(dq, wp), real(dp, wp)) - form0) <= &
+            1.0e3_wp * eps, "symplectic form " // real_str(form0) // " became " // &
+            real_str(symplectic_form(real(dq, wp), real(dp, wp))))
+        call holosym_destroy(handle)
+    contains
+        !> omega(u1, u2) = dq1 . dp2 - dp1 . dq2 of the first two vectors.
+        pure real(wp) function symplectic_form(vq, vp) result(omega)
+            real(wp), intent(in) :: vq(:, :), vp(:, :)
+            omega = dot_product(vq(:, 1), vp(:, 2)) - dot_product(vp(:, 1), vq(:, 2))
+        end function symplectic_form
+    end subroutine tangent_through_c
 
     integer function x_event_count(self)
         class(x_event), intent(in) :: self

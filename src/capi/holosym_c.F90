@@ -37,6 +37,7 @@ module holosym_c
     use holosym_events, only: event_set, event_t, integrate_events
     use holosym_lyapunov, only: lyapunov_spectrum, lyapunov_result_t
     use holosym_projection, only: project_to_manifold
+    use holosym_tangent_space, only: tangent_basis, project_tangent
     use holosym_c_registry, only: register_handle, forget_handle, is_live_handle
     implicit none
     private
@@ -56,6 +57,8 @@ module holosym_c
     public :: holosym_plan_accuracy
     ! Events: zero crossings of functions of the motion.
     public :: holosym_integrate_events, holosym_lyapunov_spectrum
+    ! The tangent map of a step, and the tangent space it acts on.
+    public :: holosym_step_tangent, holosym_tangent_basis, holosym_project_tangent
 
     !> What `holosym_model_name` names (HOLOSYM_NAME_* in the header).
     integer(c_int), parameter, public :: name_parameter_c = 0, name_coordinate_c = 1, &
@@ -830,6 +833,152 @@ contains
         end if
         holosym_lyapunov_spectrum = finish(handle, status)
     end function holosym_lyapunov_spectrum
+
+    !> int holosym_step_tangent(holosym_integrator *integrator, holosym_real *q,
+    !! holosym_real *p, const holosym_real *h, int k, holosym_real *dq, holosym_real *dp):
+    !! one step of *h in place and the derivative of the step map applied to k tangent
+    !! vectors at the start state (the Fortran `step_tangent`): vector j (0-based) is
+    !! (dq[j n .. j n + n - 1], dp[j n .. j n + n - 1]) and becomes its image at the end
+    !! state. Codes: those of `step_tangent` (HOLOSYM_OFF_MANIFOLD for a vector off the
+    !! tangent space: `holosym_project_tangent` projects it), HOLOSYM_INVALID_ARGUMENT for
+    !! a NULL pointer or k < 1; q, p, dq and dp unchanged on failure.
+    integer(c_int) function holosym_step_tangent(ptr, q_ptr, p_ptr, h_ptr, k, dq_ptr, &
+        dp_ptr) bind(C, name="holosym_step_tangent")
+        type(c_ptr), value :: ptr             !! the handle
+        type(c_ptr), value :: q_ptr, p_ptr    !! holosym_real *: the state (n each)
+        type(c_ptr), value :: h_ptr           !! const holosym_real *: step size
+        integer(c_int), value :: k            !! number of tangent vectors
+        type(c_ptr), value :: dq_ptr, dp_ptr  !! holosym_real *: the vectors (n k each)
+        character(len=*), parameter :: caller = "holosym_step_tangent"
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:), h, dq(:, :), dp(:, :)
+        real(wp), allocatable :: qw(:), pw(:), dqw(:, :), dpw(:, :)
+        handle => ready_handle(ptr, caller, holosym_step_tangent)
+        if (.not. associated(handle)) return
+        if (.not. arrays_given(handle, caller, q_ptr, p_ptr, holosym_step_tangent)) return
+        holosym_step_tangent = vectors_given(handle, caller, dq_ptr, dp_ptr, k)
+        if (holosym_step_tangent /= HOLOSYM_SUCCESS) return
+        if (.not. c_associated(h_ptr)) then
+            holosym_step_tangent = refuse(handle, HOLOSYM_INVALID_ARGUMENT, caller // &
+                ": h is NULL")
+            return
+        end if
+        call c_f_pointer(h_ptr, h)
+        q => reals_at(q_ptr, handle%system%n)
+        p => reals_at(p_ptr, handle%system%n)
+        call c_f_pointer(dq_ptr, dq, [handle%system%n, int(k)])
+        call c_f_pointer(dp_ptr, dp, [handle%system%n, int(k)])
+        handle%record%code = 0
+        qw = q
+        pw = p
+        dqw = dq
+        dpw = dp
+        call handle%integrator%step_tangent(handle%system, qw, pw, real(h, wp), dqw, dpw, &
+                                            status=status)
+        if (status%code == HOLOSYM_SUCCESS) then
+            q = qw
+            p = pw
+            dq = dqw
+            dp = dpw
+        end if
+        holosym_step_tangent = finish(handle, status)
+    end function holosym_step_tangent
+
+    !> int holosym_tangent_basis(holosym_integrator *integrator, const holosym_real *q,
+    !! const holosym_real *p, holosym_real *dq, holosym_real *dp, int *count): an
+    !! orthonormal basis of the tangent space of the constraint manifold at (q, p) (the
+    !! Fortran `tangent_basis`): its dimension 2(n - m) into *count (may be NULL), vector j
+    !! into (dq[j n ..], dp[j n ..]); dq and dp hold n 2(n - m) reals each. Codes: those of
+    !! `tangent_basis`, HOLOSYM_INVALID_ARGUMENT for a NULL pointer; outputs unchanged on
+    !! failure.
+    integer(c_int) function holosym_tangent_basis(ptr, q_ptr, p_ptr, dq_ptr, dp_ptr, &
+        count_ptr) bind(C, name="holosym_tangent_basis")
+        type(c_ptr), value :: ptr             !! the handle
+        type(c_ptr), value :: q_ptr, p_ptr    !! const holosym_real *: the state (n each)
+        type(c_ptr), value :: dq_ptr, dp_ptr  !! holosym_real *: the basis (n 2(n - m) each)
+        type(c_ptr), value :: count_ptr       !! int *, or NULL
+        character(len=*), parameter :: caller = "holosym_tangent_basis"
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:), dq(:, :), dp(:, :)
+        real(wp), allocatable :: dqw(:, :), dpw(:, :)
+        integer :: n, dimension, count
+        handle => ready_handle(ptr, caller, holosym_tangent_basis)
+        if (.not. associated(handle)) return
+        if (.not. arrays_given(handle, caller, q_ptr, p_ptr, holosym_tangent_basis)) return
+        n = handle%system%n
+        dimension = 2 * max(n - handle%system%m, 0)
+        holosym_tangent_basis = vectors_given(handle, caller, dq_ptr, dp_ptr, &
+                                              int(max(dimension, 1), c_int))
+        if (holosym_tangent_basis /= HOLOSYM_SUCCESS) return
+        q => reals_at(q_ptr, n)
+        p => reals_at(p_ptr, n)
+        call c_f_pointer(dq_ptr, dq, [n, dimension])
+        call c_f_pointer(dp_ptr, dp, [n, dimension])
+        handle%record%code = 0
+        allocate (dqw(n, dimension), dpw(n, dimension))
+        call tangent_basis(handle%system, real(q, wp), real(p, wp), dqw, dpw, count, status)
+        if (status%code == HOLOSYM_SUCCESS) then
+            dq = dqw
+            dp = dpw
+            call put_int(count_ptr, count)
+        end if
+        holosym_tangent_basis = finish(handle, status)
+    end function holosym_tangent_basis
+
+    !> int holosym_project_tangent(holosym_integrator *integrator, const holosym_real *q,
+    !! const holosym_real *p, int k, holosym_real *dq, holosym_real *dp): project the k
+    !! vectors (dq[j n ..], dp[j n ..]) orthogonally onto the tangent space at (q, p) in
+    !! place (the Fortran `project_tangent`). Codes: those of `project_tangent`,
+    !! HOLOSYM_INVALID_ARGUMENT for a NULL pointer or k < 1; unchanged on failure.
+    integer(c_int) function holosym_project_tangent(ptr, q_ptr, p_ptr, k, dq_ptr, dp_ptr) &
+        bind(C, name="holosym_project_tangent")
+        type(c_ptr), value :: ptr             !! the handle
+        type(c_ptr), value :: q_ptr, p_ptr    !! const holosym_real *: the state (n each)
+        integer(c_int), value :: k            !! number of vectors
+        type(c_ptr), value :: dq_ptr, dp_ptr  !! holosym_real *: the vectors (n k each)
+        character(len=*), parameter :: caller = "holosym_project_tangent"
+        type(c_handle), pointer :: handle
+        type(holosym_status_t) :: status
+        real(c_real), pointer :: q(:), p(:), dq(:, :), dp(:, :)
+        real(wp), allocatable :: dqw(:, :), dpw(:, :)
+        handle => ready_handle(ptr, caller, holosym_project_tangent)
+        if (.not. associated(handle)) return
+        if (.not. arrays_given(handle, caller, q_ptr, p_ptr, holosym_project_tangent)) return
+        holosym_project_tangent = vectors_given(handle, caller, dq_ptr, dp_ptr, k)
+        if (holosym_project_tangent /= HOLOSYM_SUCCESS) return
+        q => reals_at(q_ptr, handle%system%n)
+        p => reals_at(p_ptr, handle%system%n)
+        call c_f_pointer(dq_ptr, dq, [handle%system%n, int(k)])
+        call c_f_pointer(dp_ptr, dp, [handle%system%n, int(k)])
+        handle%record%code = 0
+        dqw = dq
+        dpw = dp
+        call project_tangent(handle%system, real(q, wp), real(p, wp), dqw, dpw, status)
+        if (status%code == HOLOSYM_SUCCESS) then
+            dq = dqw
+            dp = dpw
+        end if
+        holosym_project_tangent = finish(handle, status)
+    end function holosym_project_tangent
+
+    !> HOLOSYM_SUCCESS when the tangent vectors' pointers are not NULL and k >= 1, else
+    !! the call is refused with HOLOSYM_INVALID_ARGUMENT.
+    integer(c_int) function vectors_given(handle, caller, dq_ptr, dp_ptr, k) result(code)
+        type(c_handle), intent(inout) :: handle
+        character(len=*), intent(in) :: caller
+        type(c_ptr), intent(in) :: dq_ptr, dp_ptr
+        integer(c_int), intent(in) :: k
+        code = int(HOLOSYM_SUCCESS, c_int)
+        if (k < 1) then
+            code = refuse(handle, HOLOSYM_INVALID_ARGUMENT, caller // ": k = " // &
+                          decimal(int(k)) // ", at least one vector is needed")
+        else if (.not. (c_associated(dq_ptr) .and. c_associated(dp_ptr))) then
+            code = refuse(handle, HOLOSYM_INVALID_ARGUMENT, caller // ": dq and dp must " // &
+                          "not be NULL")
+        end if
+    end function vectors_given
 
     !> Each event of `list` to the C callback `found`, in order, until it returns non-zero.
     subroutine pass_events(found, list, data)

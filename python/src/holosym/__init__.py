@@ -577,6 +577,98 @@ class Integrator:
         _check(code, self._handle)
         return found, bool(stopped.value)
 
+    # -- the tangent map and Lyapunov exponents (docs/events.md)
+    def _vectors(self, dq, dp):
+        """(k, buffers of dq and dp) of k tangent vectors given as k x n arrays (one
+        vector a row; a single vector may be a flat sequence of n values)."""
+        rows = []
+        for what, values in (("dq", dq), ("dp", dp)):
+            array = np.asarray(values, dtype=object)
+            if array.ndim == 1:
+                array = array.reshape(1, -1)
+            if array.ndim != 2 or array.shape[1] != self.n or array.shape[0] < 1:
+                raise Error(SIZE_MISMATCH, f"{what}: k x {self.n} values expected (one "
+                            f"vector a row), got shape {np.asarray(values).shape}")
+            rows.append(array)
+        if rows[0].shape != rows[1].shape:
+            raise Error(SIZE_MISMATCH, f"dq and dp differ in shape: {rows[0].shape} and "
+                        f"{rows[1].shape}")
+        k = rows[0].shape[0]
+        lib = self._lib
+        buffers = [lib.reals(k * self.n, b"".join(
+            _vector_bytes(row, self.n, f"{what}[{j}]", lib) for j, row in enumerate(array)))
+            for what, array in zip(("dq", "dp"), rows)]
+        return k, buffers[0], buffers[1]
+
+    def _matrix(self, buffer, k, exact):
+        """k x n float64 array of a buffer of k vectors, or with exact a tuple of k tuples
+        of Decimals."""
+        lib = self._lib
+        raw = buffer.get_bytes()
+        size = lib.bytes * self.n
+        rows = [raw[j * size:(j + 1) * size] for j in range(k)]
+        if exact:
+            return tuple(_decimals(row, lib) for row in rows)
+        return np.array([_floats(row, lib) for row in rows], dtype=float).reshape(k, self.n)
+
+    def tangent_basis(self, exact=False):
+        """An orthonormal basis of the tangent space of the constraint manifold at the
+        state: (dq, dp), 2(n - m) x n each (vector j in row j), numpy float64 arrays or,
+        with exact=True, tuples of Decimals (which step_tangent takes back without loss)."""
+        lib = self._lib
+        dimension = 2 * (self.n - self.m)
+        dq, dp = lib.reals(max(dimension, 1) * self.n), lib.reals(max(dimension, 1) * self.n)
+        count = _clib.ctypes.c_int(0)
+        _check(lib.tangent_basis(self._handle.pointer, self._q.address, self._p.address,
+                                 dq.address, dp.address, count), self._handle)
+        return self._matrix(dq, count.value, exact), self._matrix(dp, count.value, exact)
+
+    def project_tangent(self, dq, dp, exact=False):
+        """The tangent vectors (dq, dp) (k x n each, a vector a row) projected orthogonally
+        onto the tangent space at the state: (dq, dp) as tangent_basis returns them."""
+        k, dq_buffer, dp_buffer = self._vectors(dq, dp)
+        _check(self._lib.project_tangent(self._handle.pointer, self._q.address,
+                                         self._p.address, k, dq_buffer.address,
+                                         dp_buffer.address), self._handle)
+        return self._matrix(dq_buffer, k, exact), self._matrix(dp_buffer, k, exact)
+
+    def step_tangent(self, dq, dp, h=None, exact=False):
+        """One step of size h in place (as step()) and the tangent map of the step: the
+        derivative of the step map on the constraint manifold applied to the tangent
+        vectors (dq, dp) at the start state (k x n each, a vector a row; tangent_basis
+        gives a basis, project_tangent projects other vectors). Returns their images at
+        the end state as tangent_basis returns vectors. Error(OFF_MANIFOLD) for a vector
+        off the tangent space; on any Error the state is unchanged."""
+        k, dq_buffer, dp_buffer = self._vectors(dq, dp)
+        buffer, raw = self._h_buffer(h)
+        _check(self._lib.step_tangent(self._handle.pointer, self._q.address,
+                                      self._p.address, buffer.address, k,
+                                      dq_buffer.address, dp_buffer.address), self._handle)
+        self.t += self._codec.to_fraction(raw)
+        return self._matrix(dq_buffer, k, exact), self._matrix(dp_buffer, k, exact)
+
+    def lyapunov(self, steps, h=None):
+        """The Lyapunov spectrum and MEGNO of the orbit from the state over `steps` steps
+        of size h (Benettin's re-orthonormalisation of tangent vectors on the constraint
+        manifold): returns (exponents, megno), the 2(n - m) exponents largest first as a
+        float64 array and the mean MEGNO <Y> as a float. The state advances to the end of
+        the steps taken (also on an Error, which then reports the failing step)."""
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
+            raise Error(INVALID_STEP_COUNT, f"steps must be an int, got {steps!r}")
+        lib = self._lib
+        buffer, raw = self._h_buffer(h)
+        exponents = lib.reals(max(2 * (self.n - self.m), 1))
+        megno = lib.reals(1)
+        done = _clib.ctypes.c_int(0)
+        code = lib.lyapunov_spectrum(self._handle.pointer, self._q.address, self._p.address,
+                                     buffer.address, int(steps), exponents.address,
+                                     megno.address, done)
+        if done.value > 0:
+            self.t += done.value * self._codec.to_fraction(raw)
+        _check(code, self._handle)
+        values = _floats(exponents.get_bytes(), lib)[:2 * (self.n - self.m)]
+        return values, float(_floats(megno.get_bytes(), lib)[0])
+
     def dense_output(self, tau, exact=False):
         """(q~, p~, lambda~) of the last step at tau in [0, 1] (numpy float64 arrays, or
         with exact=True tuples of Decimals). Error(NOT_INITIALIZED) before any step."""

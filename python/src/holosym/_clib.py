@@ -93,6 +93,14 @@ class Library:
                                      _p, _int_p, _p)
         self.integrate_events = declare("holosym_integrate_events", _int, _p, _p, _p, _p,
                                         _int, _int, _p, _p, _p, _p, _p, _int_p, _int_p)
+        self.lyapunov_spectrum = declare("holosym_lyapunov_spectrum", _int, _p, _p, _p, _p,
+                                         _int, _p, _p, _int_p)
+        self.step_tangent = declare("holosym_step_tangent", _int, _p, _p, _p, _p, _int, _p,
+                                    _p)
+        self.tangent_basis = declare("holosym_tangent_basis", _int, _p, _p, _p, _p, _p,
+                                     _int_p)
+        self.project_tangent = declare("holosym_project_tangent", _int, _p, _p, _p, _int, _p,
+                                       _p)
 
     def _declare(self, name, restype, *argtypes):
         function = getattr(self.lib, name)
