@@ -219,13 +219,28 @@ contains
         integer, intent(in) :: rows(:)       !! pattern from `constraint_sparsity`
         integer, intent(in) :: columns(:)    !! pattern from `constraint_sparsity`
         real(wp), intent(out) :: values(:)   !! Phi(rows(e), columns(e)) for each entry e
+        ! Up to this many entries the Jacobian lives on the stack (no allocation per call).
+        integer, parameter :: stack_entries = 256
+        real(wp), target :: buffer(stack_entries)
+        real(wp), pointer :: small(:, :)
         real(wp), allocatable :: jacobian(:, :)
-        integer :: e
-        allocate (jacobian(self%m, self%n))
-        call self%constraint_jacobian(q, jacobian)
-        do e = 1, size(rows)
-            values(e) = jacobian(rows(e), columns(e))
-        end do
+        if (self%m * self%n <= stack_entries) then
+            small(1:self%m, 1:self%n) => buffer(1:self%m * self%n)
+            call self%constraint_jacobian(q, small)
+            call gather(small)
+        else
+            allocate (jacobian(self%m, self%n))
+            call self%constraint_jacobian(q, jacobian)
+            call gather(jacobian)
+        end if
+    contains
+        subroutine gather(full)
+            real(wp), intent(in) :: full(:, :)
+            integer :: e
+            do e = 1, size(rows)
+                values(e) = full(rows(e), columns(e))
+            end do
+        end subroutine gather
     end subroutine gathered_constraint_values
 
     !> Default `dh_dq_double`: `dh_dq` at the arguments in working precision, rounded to

@@ -59,6 +59,7 @@ module holosym_reduced_multipliers
         logical :: singular = .true.
         ! Workspace.
         real(dp), allocatable :: y(:, :), dz(:, :), t(:, :), dmu(:, :), rhs(:), pair_value(:)
+        real(dp), allocatable :: w(:), end_rhs(:)  !! of `end_multipliers`
     contains
         !> Set up for a layout and the scheme's tables.
         procedure :: init => multipliers_init
@@ -111,7 +112,7 @@ contains
         self%inv_mass = real(1 / mass, dp)
         allocate (self%y(self%n, mm), self%dz(self%n, mm), self%t(self%n, 0:mm), &
                   self%dmu(self%m, 0:mm), self%rhs(self%m * mm), self%pv(size(lay%phi_rows), 0:mm), &
-                  self%kv(size(lay%phi_rows)))
+                  self%kv(size(lay%phi_rows)), self%w(self%n), self%end_rhs(self%m))
         self%pv = 0
         self%kv = 0
         if (self%m > 0) call build_patterns(self, lay)
@@ -348,11 +349,16 @@ contains
             end do
             call end_multipliers(self, lay, r)
         end if
+        ! Element by element: a vector subscript on the left would allocate a temporary.
         do k = 1, mm
-            r(lay%z_col(:, k)) = self%dz(:, k)
+            do c = 1, self%n
+                r(lay%z_col(c, k)) = self%dz(c, k)
+            end do
         end do
         do i = 0, mm
-            if (self%m > 0) r(lay%mu_col(:, i)) = self%dmu(:, i)
+            do l = 1, self%m
+                r(lay%mu_col(l, i)) = self%dmu(l, i)
+            end do
         end do
     end subroutine multipliers_solve
 
@@ -362,25 +368,26 @@ contains
         type(multiplier_solve_t), intent(inout) :: self
         type(reduced_layout_t), intent(in) :: lay
         real(dp), intent(in) :: r(:)
-        real(dp) :: w(self%n), end_rhs(self%m)
         integer :: c, e, l, mm
         mm = self%order_m
-        do c = 1, self%n
-            w(c) = dot_product(self%last_row, self%dz(c, :)) / self%h
-        end do
-        do l = 1, self%m
-            end_rhs(self%band_position(l)) = -r(lay%v_row(l))
-        end do
-        do e = 1, size(lay%phi_rows)
-            associate (pos => self%band_position(lay%phi_rows(e)))
-                end_rhs(pos) = end_rhs(pos) + self%pv(e, mm) * w(lay%phi_cols(e)) + &
-                    self%kv(e) * self%dz(lay%phi_cols(e), mm)
-            end associate
-        end do
-        call self%ends%solve(end_rhs)
-        do l = 1, self%m
-            self%dmu(l, mm) = end_rhs(self%band_position(l))
-        end do
+        associate (w => self%w, end_rhs => self%end_rhs)
+            do c = 1, self%n
+                w(c) = dot_product(self%last_row, self%dz(c, :)) / self%h
+            end do
+            do l = 1, self%m
+                end_rhs(self%band_position(l)) = -r(lay%v_row(l))
+            end do
+            do e = 1, size(lay%phi_rows)
+                associate (pos => self%band_position(lay%phi_rows(e)))
+                    end_rhs(pos) = end_rhs(pos) + self%pv(e, mm) * w(lay%phi_cols(e)) + &
+                        self%kv(e) * self%dz(lay%phi_cols(e), mm)
+                end associate
+            end do
+            call self%ends%solve(end_rhs)
+            do l = 1, self%m
+                self%dmu(l, mm) = end_rhs(self%band_position(l))
+            end do
+        end associate
     end subroutine end_multipliers
 
 end module holosym_reduced_multipliers

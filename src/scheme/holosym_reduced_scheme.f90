@@ -399,7 +399,7 @@ contains
         real(wp), intent(in) :: x(:)   !! unknowns (layout order)
         real(wp), intent(out) :: f(:)  !! residual (layout order)
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: g, i
+        integer :: g, i, l
         self%residuals = self%residuals + 1
         self%have_eval = .false.
         associate (ev => self%ev, lay => self%layout)
@@ -415,7 +415,9 @@ contains
                 if (.not. status%ok()) return
                 call constraint_values(self, self%q_work, status)
                 if (.not. status%ok()) return
-                f(lay%phi_row(:, i)) = self%phi_work
+                do l = 1, size(self%phi_work)  ! element by element: no temporary
+                    f(lay%phi_row(l, i)) = self%phi_work(l)
+                end do
             end do
             call forces_wp(lay%phi_rows, lay%phi_cols, ev)
             call sums_wp(self%tab, self%hwb, self%hw, self%mass_over_h, self%inv_mass, &
@@ -456,7 +458,7 @@ contains
         real(dp), intent(in) :: x(:)   !! unknowns (layout order), real64
         real(dp), intent(out) :: f(:)  !! residual (layout order), real64
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: g, i
+        integer :: g, i, l
         self%lowered_residuals = self%lowered_residuals + 1
         associate (ev => self%low, lay => self%layout)
             call gather_dp(lay%z_col, lay%mu_col, x, ev)
@@ -477,7 +479,9 @@ contains
                 ev%pv(:, i) = real(self%pv_work, dp)
                 call constraint_values(self, self%q_work, status)
                 if (.not. status%ok()) return
-                f(lay%phi_row(:, i)) = real(self%phi_work, dp)
+                do l = 1, size(self%phi_work)  ! element by element: no temporary
+                    f(lay%phi_row(l, i)) = real(self%phi_work(l), dp)
+                end do
             end do
             call forces_dp(lay%phi_rows, lay%phi_cols, ev)
             call sums_dp(self%low_tab, self%low_hwb, self%low_hw, self%low_mass_over_h, &
