@@ -15,12 +15,14 @@ module holosym_benchmark
     use holosym_integrator, only: constrained_integrator, step_info_t
     use holosym_manifold, only: manifold_residuals
     use holosym_rattle, only: rattle_integrator
+    use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
     use holosym_progress, only: progress_clock_t
     implicit none
     private
 
     public :: bench_row_t, bench_settings_t, reference_state, holosym_run, rattle_run, &
               sweep_holosym, sweep_rattle, configure_variant, variant_name, bench_span, &
+              accuracy_run, &
               bench_targets, variant_count, rattle_families, rattle_orders, target_in_precision
 
     !> Runs shorter than this (seconds) are repeated three times and the median is kept.
@@ -57,7 +59,8 @@ module holosym_benchmark
         real(wp) :: difference = 0
         !> heyoka: the tolerance of the run (else 0).
         real(wp) :: tolerance = 0
-        !> heyoka: CPU seconds of building (compiling) the integrator, not in `seconds`.
+        !> heyoka: CPU seconds of building (compiling) the integrator; holosym-accuracy:
+        !! of the pilot of `init_for_accuracy`. Not in `seconds`.
         real(real64) :: compile_seconds = 0
     end type bench_row_t
 
@@ -228,6 +231,65 @@ contains
             median = max(min(times(1), times(2)), min(max(times(1), times(2)), times(3)))
         end if
     end function median
+
+    !> One run as `holosym simulate --accuracy request --T span` makes it: `init_for_accuracy`
+    !! (the pilot: (M, N, G), h and the Newton tolerance chosen for the request) then
+    !! `integrate` with the plan. The row's method is holosym-accuracy, its tolerance the
+    !! request, `compile_seconds` the pilot's CPU seconds and `seconds` the run's (each the
+    !! median of 3 when pilot and run together are shorter than `short_run`).
+    subroutine accuracy_run(sys, q0, p0, span, request, q_ref, p_ref, row, status)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        real(wp), intent(in) :: q0(:), p0(:)   !! initial state
+        real(wp), intent(in) :: span           !! T
+        real(wp), intent(in) :: request        !! the error asked for at T
+        real(wp), intent(in) :: q_ref(:), p_ref(:) !! reference state at T
+        type(bench_row_t), intent(out) :: row  !! the measurements
+        type(holosym_status_t), intent(out) :: status !! outcome
+        type(constrained_integrator) :: integ
+        type(accuracy_plan_t) :: plan
+        real(wp) :: q(size(q0)), p(size(p0))
+        real(real64) :: pilot(3), run(3), start, planned, finish
+        integer :: repeat, repeats
+        row%method = "holosym-accuracy"
+        row%precision = merge("real64 ", "real128", wp_is_double)
+        row%tolerance = request
+        repeats = 1
+        repeat = 0
+        do while (repeat < repeats)
+            repeat = repeat + 1
+            q = q0
+            p = p0
+            call cpu_time(start)
+            call init_for_accuracy(integ, sys, q, p, request, span, plan, status)
+            call cpu_time(planned)
+            if (.not. status%ok()) exit
+            call integ%integrate(sys, q, p, plan%h, plan%steps, status=status)
+            call cpu_time(finish)
+            if (.not. status%ok()) exit
+            pilot(repeat) = planned - start
+            run(repeat) = finish - planned
+            if (repeat == 1 .and. finish - start < short_run) repeats = 3
+        end do
+        row%code = status%code
+        row%order_m = plan%order_m
+        row%order_n = plan%order_n
+        row%gauss_points = plan%gauss_points
+        row%order = 2 * plan%order_m
+        row%h = plan%h
+        row%steps = plan%steps
+        if (.not. status%ok()) then
+            row%h = span  ! no plan (e.g. a request below the round-off floor): a placeholder
+            return
+        end if
+        row%compile_seconds = median(pilot, repeats)
+        row%seconds = median(run, repeats)
+        row%error = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
+        row%newton_iterations = integ%stats%newton_iterations
+        row%residuals = integ%stats%residual_evaluations
+        row%gradients = integ%stats%gradient_evaluations
+        row%hessians = integ%stats%hessian_evaluations
+        row%factorizations = integ%stats%lu_factorizations
+    end subroutine accuracy_run
 
     !> One holosym run over [0, T] with step h and option set `variant`: a diagnostic pass
     !! (energy, constraints; optional, untimed) and timed passes of `integrate`.

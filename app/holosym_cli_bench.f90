@@ -22,7 +22,7 @@ module holosym_cli_bench
     use holosym_problem, only: constrained_hamiltonian
     use holosym_benchmark, only: bench_row_t, bench_settings_t, reference_state, holosym_run, &
         sweep_holosym, sweep_rattle, variant_name, bench_span, bench_targets, variant_count, &
-        rattle_families, rattle_orders, target_in_precision
+        rattle_families, rattle_orders, target_in_precision, accuracy_run
     use holosym_cli_common, only: parsed_command_proceeds, &
         cli_argument_t, split_option, option_value, parse_integer, parse_integer_in, &
         parse_real, fail, csv_real, csv_integer, join_lines, EXIT_OK, EXIT_FAILURE
@@ -308,10 +308,11 @@ contains
     !! header, a line without 23 fields, a field that is not a number or out of its range)
     !! names the file, the line and the field; `rows` is then unchanged. Ranges: system
     !! one of the benchmark's, precision real128 or real64, method holosym, holosym-plain,
-    !! rattle-<family>, heyoka or variant-0 .. variant-9; finite reals (no NaN or Inf, no
-    !! magnitude beyond the working precision); h > 0; M, N, G, order, steps, the errors,
-    !! the work counts and the difference >= 0; seconds, seconds per step and compile
-    !! seconds in [0, 1e12]; tolerance in [0, 1); status a documented code.
+    !! holosym-accuracy, rattle-<family>, heyoka or variant-0 .. variant-9; finite reals
+    !! (no NaN or Inf, no magnitude beyond the working precision); h > 0; M, N, G, order,
+    !! steps, the errors, the work counts and the difference >= 0; seconds, seconds per
+    !! step and compile seconds in [0, 1e12]; tolerance in [0, 1); status a documented
+    !! code.
     subroutine read_bench_csv(path, rows, status, optional_file)
         character(len=*), intent(in) :: path !! CSV file
         type(bench_row_t), allocatable, intent(inout) :: rows(:) !! rows are appended
@@ -498,13 +499,14 @@ contains
 
     end subroutine read_bench_csv
 
-    !> Whether `method` is one a bench CSV file may hold: holosym, holosym-plain, heyoka,
+    !> Whether `method` is one a bench CSV file may hold: holosym, holosym-plain,
+    !! holosym-accuracy, heyoka,
     !! rattle-<one of the composition families>, or a per-step option set variant-k.
     pure logical function known_method(method)
         character(len=*), intent(in) :: method
         integer :: family
         known_method = method == "holosym" .or. method == "holosym-plain" .or. &
-            method == "heyoka" .or. step_variant(method) >= 0
+            method == "holosym-accuracy" .or. method == "heyoka" .or. step_variant(method) >= 0
         do family = 1, size(rattle_families)
             if (method == "rattle-" // trim(rattle_families(family))) known_method = .true.
         end do
@@ -789,6 +791,7 @@ contains
                         order_m - 1, order_m + 1, sweep_h0, q_ref, p_ref, loose, rows)
                 end do
             end do
+            call accuracy_rows(sys, trim(bench_systems(s)), q0, p0, q_ref, p_ref, err_unit, rows)
             do family = 1, size(rattle_families)
                 if (rattle_orders(family) > options%max_rattle_order) cycle
                 settings%sweep = settings%sweep + 1
@@ -803,6 +806,39 @@ contains
             deallocate (q_ref, p_ref, q_end, p_end, q_plain, p_plain)
         end do
     end subroutine run_bench
+
+    !> The runs through `--accuracy` of one system: one per error target of this build's
+    !! table, each as `holosym simulate --accuracy TARGET --T T` makes it (pilot, then run).
+    subroutine accuracy_rows(sys, system, q0, p0, q_ref, p_ref, err_unit, rows)
+        class(constrained_hamiltonian), intent(in) :: sys
+        character(len=*), intent(in) :: system
+        real(wp), intent(in) :: q0(:), p0(:), q_ref(:), p_ref(:)
+        integer, intent(in) :: err_unit
+        type(bench_row_t), allocatable, intent(inout) :: rows(:)
+        type(bench_row_t) :: row
+        type(holosym_status_t) :: run_status
+        integer :: t
+        do t = 1, size(bench_targets)
+            if (.not. target_in_precision(bench_targets(t), &
+                                          trim(merge("real64 ", "real128", wp_is_double)))) cycle
+            call accuracy_run(sys, q0, p0, bench_span(system), bench_targets(t), q_ref, p_ref, &
+                              row, run_status)
+            row%system = system
+            rows = [rows, row]
+            if (run_status%ok()) then
+                write (err_unit, '(a)') "bench: " // system // " --accuracy " // &
+                    real_str(bench_targets(t)) // ": (" // int_str(row%order_m) // "," // &
+                    int_str(row%order_n) // "," // int_str(row%gauss_points) // ") " // &
+                    int_str(row%steps) // " steps, error " // real_str(row%error) // ", " // &
+                    seconds_text(row%compile_seconds) // " + " // seconds_text(row%seconds) // &
+                    " s"
+            else
+                write (err_unit, '(a)') "bench: " // system // " --accuracy " // &
+                    real_str(bench_targets(t)) // ": " // trim(status_code_name(run_status%code)) &
+                    // ": " // run_status%message
+            end if
+        end do
+    end subroutine accuracy_rows
 
     !> The number of sweeps `run_bench` makes (the N of its progress lines): per selected
     !! system 2 M_max holosym sweeps, the looser tolerances' (real128) and RATTLE's.
@@ -897,7 +933,8 @@ contains
         if (len(path) == 0) path = options%out_dir // "/reference.csv"
     end function reference_path
 
-    !> Cheapest successful row of a method family meeting an error target.
+    !> Cheapest successful row of a method family meeting an error target (holosym: the
+    !! sweeps' rows, not the plain path's nor those through --accuracy).
     pure integer function cheapest(rows, system, prefix, precision, target)
         type(bench_row_t), intent(in) :: rows(:)
         character(len=*), intent(in) :: system, prefix, precision
@@ -906,7 +943,8 @@ contains
         cheapest = 0
         do i = 1, size(rows)
             if (trim(rows(i)%system) /= system .or. trim(rows(i)%precision) /= precision) cycle
-            if (index(rows(i)%method, prefix) /= 1 .or. rows(i)%method == "holosym-plain") cycle
+            if (index(rows(i)%method, prefix) /= 1 .or. rows(i)%method == "holosym-plain" .or. &
+                rows(i)%method == "holosym-accuracy") cycle
             if (rows(i)%code /= HOLOSYM_SUCCESS .or. .not. rows(i)%error <= target) cycle
             if (cheapest == 0) then
                 cheapest = i
@@ -935,7 +973,7 @@ contains
         if (index(row%method, "holosym") == 1) then
             text = "(" // int_str(row%order_m) // "," // int_str(row%order_n) // "," // &
                 int_str(row%gauss_points) // ") h=" // trim(buffer)
-            if (row%tolerance > 0) then
+            if (row%tolerance > 0 .and. row%method /= "holosym-accuracy") then
                 write (buffer, '(es8.1)') real(row%tolerance, real64)
                 text = text // " Newton tol " // trim(adjustl(buffer))
             end if
@@ -1037,6 +1075,7 @@ contains
                 end do
             end do
         end do
+        call accuracy_summary(rows, out, level)
         if (size(steps_rows) == 0) return
         call out%line("")
         call out%line(level // "# Per-step cost of the speed options " // &
@@ -1080,6 +1119,79 @@ contains
             end if
         end function ratio
     end subroutine write_summary
+
+    !> The row through --accuracy of a system, precision and target (0: none).
+    pure integer function accuracy_index(rows, system, precision, target) result(found)
+        type(bench_row_t), intent(in) :: rows(:)
+        character(len=*), intent(in) :: system, precision
+        real(wp), intent(in) :: target
+        integer :: i
+        found = 0
+        do i = 1, size(rows)
+            if (trim(rows(i)%system) /= system .or. trim(rows(i)%precision) /= precision) cycle
+            if (rows(i)%method /= "holosym-accuracy") cycle
+            if (abs(rows(i)%tolerance - target) <= 1.0e-6_wp * target) found = i
+        end do
+    end function accuracy_index
+
+    !> The tables of the runs through --accuracy, per precision: the plan, the error
+    !! reached, the pilot's and the run's CPU seconds, and heyoka's cheapest run reaching
+    !! the target against the run alone and against pilot and run together.
+    subroutine accuracy_summary(rows, out, level)
+        type(bench_row_t), intent(in) :: rows(:)
+        type(output_t), intent(inout) :: out
+        character(len=*), intent(in) :: level
+        integer :: precision, t, s, chosen, taylor
+        character(len=:), allocatable :: prec, line
+        do precision = 2, 1, -1
+            prec = merge("real128", "real64 ", precision == 2)
+            if (.not. any(rows%precision == prec .and. rows%method == "holosym-accuracy")) cycle
+            call out%line("")
+            call out%line(level // "# " // trim(prec) // " through --accuracy")
+            call out%line("")
+            call out%line("holosym as `holosym simulate --accuracy TARGET --T T` runs it " // &
+                "(`init_for_accuracy`: a pilot chooses (M, N, G), h and the Newton " // &
+                "tolerance, then the run), against heyoka's cheapest run reaching the " // &
+                "target (its tolerance chosen after the fact, compile time apart).")
+            call out%line("")
+            call out%line("| target | system | plan | error at T | pilot s | run s | " // &
+                "heyoka s | x heyoka (run) | x heyoka (pilot + run) |")
+            call out%line("|---|---|---|---|---|---|---|---|---|")
+            do t = 1, size(bench_targets)
+                if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
+                do s = 1, size(bench_systems)
+                    chosen = accuracy_index(rows, trim(bench_systems(s)), trim(prec), &
+                                            bench_targets(t))
+                    if (chosen == 0) cycle
+                    taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
+                                      bench_targets(t))
+                    line = "| " // trim(real_str(bench_targets(t))) // " | " // &
+                        trim(bench_systems(s)) // " | "
+                    if (rows(chosen)%code /= HOLOSYM_SUCCESS) then
+                        line = line // "refused: " // trim(status_code_name(rows(chosen)%code)) &
+                            // " | — | — | — | "
+                    else
+                        line = line // config_text(rows(chosen)) // ", " // &
+                            int_str(rows(chosen)%steps) // " steps | " // &
+                            short_real(rows(chosen)%error) // " | " // &
+                            seconds_text(rows(chosen)%compile_seconds) // " | " // &
+                            seconds_text(rows(chosen)%seconds) // " | "
+                    end if
+                    if (taylor > 0 .and. rows(chosen)%code == HOLOSYM_SUCCESS) then
+                        line = line // seconds_text(rows(taylor)%seconds) // " | " // &
+                            ratio_text(rows(taylor)%seconds / rows(chosen)%seconds) // " | " // &
+                            ratio_text(rows(taylor)%seconds / (rows(chosen)%seconds + &
+                            rows(chosen)%compile_seconds)) // " |"
+                    else if (taylor > 0) then
+                        line = line // seconds_text(rows(taylor)%seconds) // " | — | — |"
+                    else
+                        line = line // "— | — | — |"
+                    end if
+                    call out%line(line)
+                end do
+            end do
+        end do
+    end subroutine accuracy_summary
 
     !> `holosym bench [options]`. Exit 0 success, 1 failure, 2 usage.
     subroutine bench_command(args, out, err_unit, exit_code)
@@ -1242,6 +1354,54 @@ contains
         end do
     end subroutine target_verdicts
 
+    !> Verdicts on the targets through --accuracy: per precision, heyoka's time / holosym's
+    !! (pilot and run) against the required ratio (real128 2, real64 0.5) wherever heyoka
+    !! reaches the target, and the largest error / request of holosym's runs.
+    subroutine accuracy_verdicts(rows, unit)
+        type(bench_row_t), intent(in) :: rows(:)
+        type(output_t), intent(inout) :: unit !! the page
+        integer :: precision, t, s, chosen, taylor, met, total
+        real(real64) :: required, ratio, worst
+        real(wp) :: overshoot
+        character(len=:), allocatable :: prec, smallest
+        do precision = 2, 1, -1
+            prec = merge("real128", "real64 ", precision == 2)
+            if (.not. any(rows%precision == prec .and. rows%method == "holosym-accuracy")) cycle
+            required = merge(2.0_real64, 0.5_real64, precision == 2)
+            met = 0
+            total = 0
+            worst = huge(1.0_real64)
+            overshoot = 0
+            do t = 1, size(bench_targets)
+                if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
+                do s = 1, size(bench_systems)
+                    chosen = accuracy_index(rows, trim(bench_systems(s)), trim(prec), &
+                                            bench_targets(t))
+                    if (chosen == 0) cycle
+                    if (rows(chosen)%code == HOLOSYM_SUCCESS) overshoot = max(overshoot, &
+                        rows(chosen)%error / bench_targets(t))
+                    taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
+                                      bench_targets(t))
+                    if (taylor == 0) cycle  ! heyoka does not reach it: no comparison
+                    total = total + 1
+                    if (rows(chosen)%code /= HOLOSYM_SUCCESS) cycle
+                    ratio = rows(taylor)%seconds / (rows(chosen)%seconds + &
+                                                    rows(chosen)%compile_seconds)
+                    worst = min(worst, ratio)
+                    if (ratio >= required) met = met + 1
+                end do
+            end do
+            smallest = "—"
+            if (worst < huge(1.0_real64)) smallest = ratio_text(worst)
+            call unit%line("- " // trim(prec) // " through `--accuracy` (pilot and run " // &
+                "together at least " // ratio_text(required) // "x faster than heyoka " // &
+                "wherever heyoka reaches the target): met at " // int_str(met) // " of " // &
+                int_str(total) // " pairs; smallest ratio " // smallest // "; the error " // &
+                "reached is at most " // ratio_text(real(overshoot, real64)) // &
+                " times the request.")
+        end do
+    end subroutine accuracy_verdicts
+
     !> docs/performance.md: how it was measured, the targets with their measured ratios,
     !! the work-precision tables, the scaling and long-run sections and the figures.
     subroutine write_performance(dir, rows, steps_rows, unit)
@@ -1287,6 +1447,7 @@ contains
         call unit%line("## Targets at fixed T, measured")
         call unit%line("")
         call target_verdicts(rows, unit)
+        call accuracy_verdicts(rows, unit)
         call unit%line("")
         call unit%line("Where a target is missed, the profile of a step and the least a step of this " // &
             "design costs are in [design.md](design.md#where-the-time-goes-and-what-this-design-" // &

@@ -1,12 +1,14 @@
 !> Tests of `holosym bench`, run as an executable: `--summarize DIR` on CSV files written
 !! here (malformed files rejected with the file, line and field and no summary written;
-!! the cheapest successful configuration per target and its ratios; the per-step table;
+!! the cheapest successful configuration per target and its ratios; the runs through
+!! --accuracy with their pilot, against heyoka, and their verdict; the per-step table;
 !! values read to the last bit), and one tiny sweep end to end (files written, errors
 !! measured, `--summarize` reproducing the summary, an empty directory an error).
 module test_bench
     use, intrinsic :: iso_fortran_env, only: real64, int64
     use holosym_kinds, only: wp, wp_is_double
-    use holosym_status_codes, only: int_str, real_str, HOLOSYM_SUCCESS, HOLOSYM_NEWTON_DIVERGED
+    use holosym_status_codes, only: int_str, real_str, status_code_name, HOLOSYM_SUCCESS, &
+        HOLOSYM_NEWTON_DIVERGED, HOLOSYM_INVALID_ARGUMENT
     use holosym_study_text, only: int64_str, ratio_text
     use holosym_testing, only: test_case_t, new_test, test_error_t, check, check_close, &
         split_field
@@ -48,6 +50,7 @@ contains
             new_test("csv_rejects_malformed_input", test_csv_malformed), &
             new_test("summary_picks_cheapest_successful_run", test_summary_cheapest), &
             new_test("summary_per_step_ratios", test_summary_per_step), &
+            new_test("summary_through_accuracy", test_summary_accuracy), &
             new_test("command_tiny_sweep_end_to_end", test_command_end_to_end), &
             new_test("scaling_quick", test_scaling_quick), &
             new_test("long_quick", test_long_quick)]
@@ -572,6 +575,79 @@ contains
         call check(error, file_exists(dir // "/performance.md"), "performance.md written")
     end subroutine test_summary_cheapest
 
+    !> The runs through --accuracy (method holosym-accuracy: tolerance the request,
+    !! compile_seconds the pilot) have their own table and verdict: the plan, the error,
+    !! pilot and run seconds, heyoka's cheapest run reaching the target and the ratios to
+    !! the run and to pilot and run together; a refused request says so; they never pass
+    !! for the cheapest run of the sweeps.
+    subroutine test_summary_accuracy(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(row_t) :: rows(3), taylor
+        type(command_result_t) :: result
+        type(text_line_t), allocatable :: page(:)
+        character(len=:), allocatable :: line, dir, section
+        real(real64), parameter :: pilot = 6.0e-3_real64, run = 1.0e-4_real64
+        integer :: ios, i
+        logical :: found
+        dir = fresh_dir("bench_accuracy")
+        rows(1) = make_row("pendulum", "holosym", "real128", 6, 1.0_wp, 1.0e-12_wp, &
+                           4.0e-3_real64, 0)
+        ! Cheaper than the sweep's run and below the target: still not the sweep's best.
+        rows(2) = make_row("pendulum", "holosym-accuracy", "real128", 6, 0.5_wp, 5.0e-11_wp, &
+                           run, 0)
+        rows(2)%tolerance = 1.0e-10_wp
+        rows(2)%compile_seconds = real(pilot, wp)
+        rows(3) = make_row("pendulum", "holosym-accuracy", "real128", 8, 10.0_wp, 0.0_wp, &
+                           0.0_real64, HOLOSYM_INVALID_ARGUMENT)
+        rows(3)%tolerance = 1.0e-30_wp
+        call write_rows(dir // "/bench.csv", rows)
+        taylor = make_row("pendulum", "heyoka", "real128", 0, 0.05_wp, 1.0e-11_wp, &
+                          heyoka_seconds, 0)
+        taylor%order = 13
+        taylor%tolerance = 1.0e-12_wp
+        call write_rows(dir // "/heyoka.csv", [taylor])
+        call summarize(error, dir, result)
+        if (allocated(error)) return
+        call check(error, result%exit_code == 0, "--summarize exits " // &
+            int_str(result%exit_code))
+        line = summary_line(result%out, "real128", "1.0e-10", "pendulum")
+        call check(error, cell(line, 3) == "(6,5,7) h=1.000", "the sweep's cheapest: " // line)
+        section = "real128 through --accuracy"
+        line = summary_line(result%out, section, "1.0e-10", "pendulum")
+        call check(error, len(line) > 0, "an --accuracy line for 1e-10")
+        if (allocated(error)) return
+        call check(error, cell(line, 3) == "(6,5,7) h=0.5000, 20 steps", "plan: " // line)
+        call check(error, cell(line, 4) == "5.0E-11", "error: " // line)
+        call check(error, cell(line, 5) == "6.00E-03" .and. cell(line, 6) == "1.00E-04", &
+            "pilot and run seconds: " // line)
+        call check(error, cell(line, 7) == "1.60E-03", "heyoka's time: " // line)
+        call check(error, cell(line, 8) == ratio_text(heyoka_seconds / run), &
+            "x heyoka (run): " // line)
+        call check(error, cell(line, 9) == ratio_text(heyoka_seconds / (run + pilot)), &
+            "x heyoka (pilot + run): " // line)
+        line = summary_line(result%out, section, "1.0e-30", "pendulum")
+        call check(error, index(cell(line, 3), "refused: " // &
+            status_code_name(HOLOSYM_INVALID_ARGUMENT)) == 1 .and. cell(line, 8) == "—", &
+            "a refused request: " // line)
+        line = summary_line(result%out, section, "1.0e-14", "pendulum")
+        call check(error, len(line) == 0, "no line without a run: " // line)
+        if (allocated(error)) return
+        ! The verdict: heyoka reaches 1e-10 only; 1.6e-3 / 6.1e-3 < 2; error 0.5 x request.
+        call read_lines(dir // "/performance.md", page, ios)
+        call check(error, ios == 0, "performance.md read")
+        if (allocated(error)) return
+        found = .false.
+        do i = 1, size(page)
+            if (index(page(i)%text, "- real128 through `--accuracy`") /= 1) cycle
+            found = .true.
+            call check(error, index(page(i)%text, "met at 0 of 1 pairs; smallest ratio " // &
+                ratio_text(heyoka_seconds / (run + pilot))) > 0 .and. &
+                index(page(i)%text, "at most " // ratio_text(0.5_real64) // " times") > 0, &
+                "verdict: " // page(i)%text)
+        end do
+        call check(error, found, "a verdict through --accuracy in performance.md")
+    end subroutine test_summary_accuracy
+
     !> The per-step table: seconds per step and the ratio to the plain path (option set 0)
     !! of the same configuration; rows that are not an option set are left out.
     subroutine test_summary_per_step(error)
@@ -622,7 +698,7 @@ contains
         type(row_t), allocatable :: rows(:)
         type(row_t) :: row
         character(len=:), allocatable :: dir, csv_name, args(:)
-        integer :: i, ios, first_holosym, last_holosym
+        integer :: i, ios, first_holosym, last_holosym, accuracy_rows
         logical :: ok
 
         dir = fresh_dir("bench_sweep")
@@ -659,10 +735,17 @@ contains
         end do
         first_holosym = 0
         last_holosym = 0
+        accuracy_rows = 0
         do i = 1, size(rows)
             call check(error, rows(i)%system == "pendulum", "system of row " // int_str(i))
             call check(error, rows(i)%method == "holosym" .or. &
+                rows(i)%method == "holosym-accuracy" .or. &
                 rows(i)%method == "rattle-triple-jump", "method of row " // rows(i)%method)
+            if (rows(i)%method == "holosym-accuracy") then
+                call check_accuracy_row(error, rows(i))
+                accuracy_rows = accuracy_rows + 1
+                cycle
+            end if
             call check_close(error, rows(i)%steps * rows(i)%h, pendulum_span, &
                 64 * epsilon(1.0_wp), 0.0_wp, "steps h = T in row " // int_str(i))
             if (rows(i)%code == HOLOSYM_SUCCESS) call check(error, rows(i)%error > 0 .and. &
@@ -678,6 +761,8 @@ contains
             end if
         end do
         if (allocated(error)) return
+        call check(error, accuracy_rows == merge(3, 6, wp_is_double), int_str(accuracy_rows) // &
+            " runs through --accuracy, one per target of the precision")
         call check(error, last_holosym > first_holosym, "at least two (1,0,1) runs")
         if (allocated(error)) return
         ! Order 2: the error falls with h (by about the square of the step ratio).
@@ -722,6 +807,26 @@ contains
             "message: " // again%err(1)%text)
 
     contains
+
+        !> A run through --accuracy: the request is a target of the precision; it reaches
+        !! at most 10 times the request in whole steps to T, with a pilot, or it is refused
+        !! as below the round-off floor (the real64 build's 1e-14).
+        subroutine check_accuracy_row(error, row)
+            type(test_error_t), allocatable, intent(inout) :: error
+            type(row_t), intent(in) :: row
+            if (row%code /= HOLOSYM_SUCCESS) then
+                call check(error, row%code == HOLOSYM_INVALID_ARGUMENT .and. wp_is_double .and. &
+                    row%tolerance < 1.0e-13_wp, "--accuracy " // real_str(row%tolerance) // &
+                    " refused with code " // int_str(row%code))
+                return
+            end if
+            call check(error, row%error <= 10 * row%tolerance, "--accuracy " // &
+                real_str(row%tolerance) // " reaches " // real_str(row%error))
+            call check_close(error, row%steps * row%h, pendulum_span, 64 * epsilon(1.0_wp), &
+                0.0_wp, "--accuracy: steps h = T")
+            call check(error, row%compile_seconds > 0 .and. row%newton_iterations > 0, &
+                "--accuracy " // real_str(row%tolerance) // ": pilot seconds and iterations")
+        end subroutine check_accuracy_row
 
         pure integer function count_prefix(lines, prefix)
             type(text_line_t), intent(in) :: lines(:)

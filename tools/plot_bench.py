@@ -4,7 +4,9 @@
 - DIR/work_precision.png: error at T against CPU seconds, one panel per system; for each
   of holosym, RATTLE composed inside holosym (all of GNI_COMP's compositions together)
   and heyoka (index-1 form), the cheapest runs joined into a front, real128 solid and
-  real64 dotted (bench.csv, bench64.csv, heyoka.csv, heyoka64.csv).
+  real64 dotted (bench.csv, bench64.csv, heyoka.csv, heyoka64.csv); and holosym run
+  through --accuracy, one star (real128) or cross (real64) per target at the CPU seconds
+  of its pilot and run together.
 - DIR/scaling.png: cost per step and peak memory of the chain of K pendula against K,
   reduced step and general path, real128 and real64 (scaling.csv, scaling64.csv).
 
@@ -74,6 +76,16 @@ def work_precision(directory):
                 curve = front(points)
                 axis.loglog([p[0] for p in curve], [p[1] for p in curve], line, color=colour,
                             marker=marker, markersize=4, label="%s, %s" % (label, precision))
+            # holosym as `simulate --accuracy TARGET` runs it: one point per target, at
+            # the CPU seconds of its pilot and run together.
+            chosen = [(float(r["seconds"]) + float(r["compile_seconds"]),
+                       max(float(r["error"]), 1e-36)) for r in rows
+                      if r["system"] == system and r["method"] == "holosym-accuracy"
+                      and r["precision"] == precision]
+            if chosen:
+                axis.loglog([p[0] for p in chosen], [p[1] for p in chosen], color="C0", marker="*" if precision == "real128" else "x",
+                            markersize=8, linestyle="none",
+                            label="holosym --accuracy (pilot + run), %s" % precision)
         axis.set_title(title)
         axis.set_xlabel("CPU seconds (one core; heyoka without compile time)")
         axis.set_ylabel("global error at T")

@@ -450,6 +450,15 @@ contains
         call c_f_pointer(address, values, [count])
     end function reals_at
 
+    !> The k vectors of n reals stored one after another at a C address that is not NULL,
+    !! as the columns of an n-by-k array.
+    function vectors_at(address, n, k) result(vectors)
+        type(c_ptr), intent(in) :: address
+        integer, intent(in) :: n, k
+        real(c_real), pointer :: vectors(:, :)
+        call c_f_pointer(address, vectors, [n, k])
+    end function vectors_at
+
     !> Record a call's outcome in the handle, adding the failing callback if any.
     integer(c_int) function finish(handle, status) result(code)
         type(c_handle), intent(inout) :: handle
@@ -867,8 +876,8 @@ contains
         call c_f_pointer(h_ptr, h)
         q => reals_at(q_ptr, handle%system%n)
         p => reals_at(p_ptr, handle%system%n)
-        call c_f_pointer(dq_ptr, dq, [handle%system%n, int(k)])
-        call c_f_pointer(dp_ptr, dp, [handle%system%n, int(k)])
+        dq => vectors_at(dq_ptr, handle%system%n, int(k))
+        dp => vectors_at(dp_ptr, handle%system%n, int(k))
         handle%record%code = 0
         qw = q
         pw = p
@@ -914,8 +923,8 @@ contains
         if (holosym_tangent_basis /= HOLOSYM_SUCCESS) return
         q => reals_at(q_ptr, n)
         p => reals_at(p_ptr, n)
-        call c_f_pointer(dq_ptr, dq, [n, dimension])
-        call c_f_pointer(dp_ptr, dp, [n, dimension])
+        dq => vectors_at(dq_ptr, n, dimension)
+        dp => vectors_at(dp_ptr, n, dimension)
         handle%record%code = 0
         allocate (dqw(n, dimension), dpw(n, dimension))
         call tangent_basis(handle%system, real(q, wp), real(p, wp), dqw, dpw, count, status)
@@ -950,8 +959,8 @@ contains
         if (holosym_project_tangent /= HOLOSYM_SUCCESS) return
         q => reals_at(q_ptr, handle%system%n)
         p => reals_at(p_ptr, handle%system%n)
-        call c_f_pointer(dq_ptr, dq, [handle%system%n, int(k)])
-        call c_f_pointer(dp_ptr, dp, [handle%system%n, int(k)])
+        dq => vectors_at(dq_ptr, handle%system%n, int(k))
+        dp => vectors_at(dp_ptr, handle%system%n, int(k))
         handle%record%code = 0
         dqw = dq
         dpw = dp

@@ -12,7 +12,8 @@
 !! fails). It then measures the error constant over the span itself (its first 1000
 !! coarse steps when longer): runs with 2 h and h (h the finest pilot step) whose
 !! difference d gives the error of the finer, d / (2^(2M) - 1), extrapolated linearly to
-!! T. The whole span is needed: a motion that starts slowly (the spring-linkage, released
+!! T; these two runs iterate Newton only to a tolerance derived from the request. The
+!! whole span is needed: a motion that starts slowly (the spring-linkage, released
 !! at rest) has errors after the first tenth orders of magnitude below those at T. The
 !! step is chosen to meet half the request (never coarser than the coarse span run),
 !! rounded so that T is a whole number of steps; the Newton tolerance is the request
@@ -77,6 +78,10 @@ module holosym_accuracy
     !> The Newton tolerance is the request over this many times the steps (per-step Newton
     !! errors add up at most linearly).
     real(wp), parameter :: newton_share = 4
+    !> The pilot's span runs keep their Newton errors this many times below the request
+    !! (the difference they measure is 2^(2M) - 1 times the error of the finer, and the
+    !! plan's step is never coarser than theirs).
+    real(wp), parameter :: span_share = 64
 
 contains
 
@@ -123,8 +128,8 @@ contains
         trial%newton%tolerance = 8 * epsilon(1.0_wp)
         call trial%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
         if (local%ok()) call pilot(trial, sys, q, p, plan, scale, local)
-        if (local%ok()) call full_span(trial, sys, q, p, T, plan, scale, error_full, h_full, &
-                                       local)
+        if (local%ok()) call full_span(trial, sys, q, p, T, tolerance, plan, scale, &
+                                       error_full, h_full, local)
         if (.not. local%ok()) then
             call set_status(status, local%code, local%message)
             return
@@ -250,11 +255,13 @@ contains
     !! the coarse step h_c = 2 pilot_h and with h_c/2, their difference d giving the error
     !! of the finer, d / (2^(2M) - 1), extrapolated linearly from the span covered to T; in
     !! `error` at step `h_fine` (h_c halved while a run fails: the motion may be faster
-    !! later than at the start).
-    subroutine full_span(integ, sys, q, p, T, plan, scale, error, h_fine, status)
+    !! later than at the start). The two runs iterate Newton to `span_tolerance` (their
+    !! Newton errors, added over the steps, far below the request), not to round-off.
+    subroutine full_span(integ, sys, q, p, T, tolerance, plan, scale, error, h_fine, status)
         type(constrained_integrator), intent(inout) :: integ
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), T, scale
+        real(wp), intent(in) :: tolerance !! the request
         type(accuracy_plan_t), intent(inout) :: plan
         real(wp), intent(out) :: error, h_fine
         type(holosym_status_t), intent(out) :: status
@@ -274,6 +281,7 @@ contains
             else
                 steps = max(1, ceiling(T / coarse))
             end if
+            integ%newton%tolerance = span_tolerance(tolerance, 2 * steps, scale)
             call pilot_run(integ, sys, q, p, plan, covered, steps, end(:, 1), status)
             if (status%ok()) call pilot_run(integ, sys, q, p, plan, covered, 2 * steps, &
                                             end(:, 2), status)
@@ -284,13 +292,36 @@ contains
         h_fine = covered / (2 * steps)
         plan%covered_span = covered
         d = maxval(abs(end(:, 1) - end(:, 2)))
-        ! At round-off the difference bounds the error from above.
-        error = max(d, roundoff_floor(scale)) / (2.0_wp**(2 * plan%order_m) - 1) * &
-            (T / covered)
+        ! At round-off, or at the runs' Newton errors, the difference bounds the error
+        ! from above.
+        error = max(d, roundoff_floor(scale), newton_floor(integ%newton%tolerance, &
+            2 * steps, scale)) / (2.0_wp**(2 * plan%order_m) - 1) * (T / covered)
+        integ%newton%tolerance = 8 * epsilon(1.0_wp)
     end subroutine full_span
 
+    !> The Newton tolerance of the span runs for a request: their Newton errors, at most
+    !! `steps` times the tolerance of the state's size, stay `span_share` times below it
+    !! (at least 8 epsilon, the default).
+    pure real(wp) function span_tolerance(tolerance, steps, scale)
+        real(wp), intent(in) :: tolerance, scale
+        integer, intent(in) :: steps
+        span_tolerance = max(8 * epsilon(1.0_wp), min(1.0e-3_wp, &
+            tolerance / (span_share * steps * max(scale, 1.0_wp))))
+    end function span_tolerance
+
+    !> The most the Newton errors of a run of `steps` steps at Newton tolerance
+    !! `newton_tolerance` move its end state (0 at the default 8 epsilon: round-off
+    !! bounds them then).
+    pure real(wp) function newton_floor(newton_tolerance, steps, scale)
+        real(wp), intent(in) :: newton_tolerance, scale
+        integer, intent(in) :: steps
+        newton_floor = 0
+        if (newton_tolerance > 8 * epsilon(1.0_wp)) &
+            newton_floor = steps * newton_tolerance * max(scale, 1.0_wp)
+    end function newton_floor
+
     !> One pilot run: `steps` steps to `span` with `integ` as set up for the pilot (the
-    !! plan's (M, N, G), the default Newton tolerance); the end state (q, p) in `end`.
+    !! plan's (M, N, G) and the Newton tolerance it is given); the end state in `end`.
     subroutine pilot_run(integ, sys, q, p, plan, span, steps, end, status)
         type(constrained_integrator), intent(inout) :: integ
         class(constrained_hamiltonian), intent(in), target :: sys
