@@ -1,13 +1,11 @@
 !> category: internal submodule (use holosym)
 !! One step of `constrained_integrator`: its Newton solve, without accepting it, by the
-!! reduced step when active (the general scheme its fallback for small systems where the
-!! reduced step's real64 factors are in doubt), else by
+!! reduced step when active (the general scheme its fallback for small systems), else by
 !! the general scheme, whose solve is retried with fresh factors, from the constant first
 !! guess and on the plain path (full Newton, working-precision LU) before it fails; the
 !! checks of the solution's end state and displacement nodes; the check of its root and
 !! its diagnosis on failure (`solve_step`); its acceptance (`commit_step`).
 submodule (holosym_integrator) holosym_step_solution
-    use, intrinsic :: iso_fortran_env, only: real64
     use holosym_status_codes, only: HOLOSYM_NONFINITE_VALUE, HOLOSYM_SINGULAR_MATRIX, &
         HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, is_system_fault
     use holosym_problem, only: clear_refusal, refusal_pending, check_refusal
@@ -17,14 +15,6 @@ submodule (holosym_integrator) holosym_step_solution
     use holosym_manifold, only: manifold_residuals
     use holosym_reduced_step, only: reduced_report_t
     implicit none
-
-    !> A failed reduced step falls back on the general step only when its real64 factors
-    !! may be what failed: a singular matrix, or a pivot ratio below this (the factors then
-    !! lose more than half of real64's digits, and refinement in working precision
-    !! contracts slowly or not at all). Better conditioned factors that fail to converge
-    !! mean a step the motion does not allow, where the general step fails too (at the cost
-    !! of some ten reduced attempts).
-    real(wp), parameter :: doubtful_pivot_ratio = sqrt(epsilon(1.0_real64))
 
 contains
 
@@ -85,9 +75,7 @@ contains
         else
             call solve_reduced(self, sys, q, p, h, extrapolation, status)
             if (.not. (status%ok() .or. .not. self%path%general_ready .or. &
-                       is_system_fault(status%code) .or. &
-                       (status%code /= HOLOSYM_SINGULAR_MATRIX .and. &
-                        self%pending%pivot_ratio >= doubtful_pivot_ratio))) then
+                       is_system_fault(status%code))) then
                 ! The reduced step factors its Newton matrix in real64 only: where that is
                 ! too ill-conditioned (nearly dependent constraints), the general step of a
                 ! small system has working-precision factors to fall back on (from the
@@ -389,8 +377,6 @@ contains
                          report%lowered_residuals, self%reduced%scheme%gradients - gradients0, &
                          0, status%ok())
         if (.not. status%ok()) then
-            ! The factors' conditioning decides whether the general step is tried.
-            self%pending%pivot_ratio = report%pivot_ratio
             if (status%code == HOLOSYM_SINGULAR_MATRIX) &
                 call record_dependent_nodes(self, sys, q, .false.)
             status%message = "reduced " // trim(step_label(self, h)) // ": " // status%message
