@@ -232,6 +232,19 @@ contains
         end if
     end function median
 
+    !> A finished run's error at T against the reference and the integrator's work counts.
+    subroutine record_end(integ, q, p, q_ref, p_ref, row)
+        type(constrained_integrator), intent(in) :: integ
+        real(wp), intent(in) :: q(:), p(:), q_ref(:), p_ref(:)
+        type(bench_row_t), intent(inout) :: row
+        row%error = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
+        row%newton_iterations = integ%stats%newton_iterations
+        row%residuals = integ%stats%residual_evaluations
+        row%gradients = integ%stats%gradient_evaluations
+        row%hessians = integ%stats%hessian_evaluations
+        row%factorizations = integ%stats%lu_factorizations
+    end subroutine record_end
+
     !> One run as `holosym simulate --accuracy request --T span` makes it: `init_for_accuracy`
     !! (the pilot: (M, N, G), h and the Newton tolerance chosen for the request) then
     !! `integrate` with the plan. The row's method is holosym-accuracy, its tolerance the
@@ -283,12 +296,7 @@ contains
         end if
         row%compile_seconds = median(pilot, repeats)
         row%seconds = median(run, repeats)
-        row%error = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
-        row%newton_iterations = integ%stats%newton_iterations
-        row%residuals = integ%stats%residual_evaluations
-        row%gradients = integ%stats%gradient_evaluations
-        row%hessians = integ%stats%hessian_evaluations
-        row%factorizations = integ%stats%lu_factorizations
+        call record_end(integ, q, p, q_ref, p_ref, row)
     end subroutine accuracy_run
 
     !> One holosym run over [0, T] with step h and option set `variant`: a diagnostic pass
@@ -381,12 +389,7 @@ contains
         row%code = status%code
         if (.not. status%ok()) return
         row%seconds = median(times, repeats)
-        row%error = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
-        row%newton_iterations = integ%stats%newton_iterations
-        row%residuals = integ%stats%residual_evaluations
-        row%gradients = integ%stats%gradient_evaluations
-        row%hessians = integ%stats%hessian_evaluations
-        row%factorizations = integ%stats%lu_factorizations
+        call record_end(integ, q, p, q_ref, p_ref, row)
         if (present(q_end)) q_end = q
         if (present(p_end)) p_end = p
     end subroutine holosym_run
