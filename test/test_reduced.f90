@@ -73,6 +73,7 @@ contains
         tests = [ &
             new_test("agrees_with_general_scheme", agrees_with_general), &
             new_test("no_constraints", no_constraints), &
+            new_test("general_fallback_setting_honoured", fallback_setting), &
             new_test("loose_tolerance_real64_iterations_only", loose_tolerance), &
             new_test("unreachable_tolerance_stops_at_round_off", unreachable_tolerance), &
             new_test("dense_output_and_multipliers_agree", dense_output_agrees), &
@@ -865,5 +866,39 @@ contains
         call self%spherical_pendulum%dh_dq(q, p, gradient)
         if (q(3) > self%threshold) gradient(3) = ieee_value(1.0_wp, ieee_quiet_nan)
     end subroutine nan_dh_dq
+
+    !> A reduced step that fails (a step of h = 50, far beyond what the spherical pendulum
+    !! resolves) is solved again by the general step when `general_fallback` is set (its
+    !! message then names the reduced failure it follows), and fails at once when not;
+    !! either way the state is unchanged.
+    subroutine fallback_setting(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(spherical_pendulum) :: sys
+        type(constrained_integrator) :: integ
+        type(holosym_status_t) :: status
+        real(wp) :: q0(3), p0(3), q(3), p(3)
+        logical :: fallback
+        integer :: k
+        sys = spherical_pendulum()
+        call sys%initial_state(q0, p0)
+        do k = 1, 2
+            fallback = k == 1
+            integ = constrained_integrator()
+            integ%general_fallback = fallback
+            call integ%init(sys, 4, 3, 5, status)
+            call check_status_code(error, status%code, HOLOSYM_SUCCESS, "init: " // &
+                status%message)
+            if (allocated(error)) return
+            q = q0
+            p = p0
+            call integ%step(sys, q, p, 50.0_wp, status=status)
+            call check(error, .not. status%ok(), "h = 50 fails (fallback " // &
+                merge("on) ", "off)", fallback))
+            call check(error, (index(status%message, "(after the ") > 0) .eqv. fallback, &
+                "the general step tried only with the fallback set: " // status%message)
+            call check(error, all(q == q0) .and. all(p == p0), "state unchanged")
+            if (allocated(error)) return
+        end do
+    end subroutine fallback_setting
 
 end module test_reduced

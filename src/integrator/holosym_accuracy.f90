@@ -108,7 +108,7 @@ contains
         real(wp), intent(in) :: T            !! final time, > 0
         type(accuracy_plan_t), intent(out) :: plan !! the choice and its estimate
         type(holosym_status_t), intent(out), optional :: status !! outcome
-        type(constrained_integrator) :: trial
+        type(constrained_integrator) :: trial, fresh
         type(holosym_status_t) :: local
         real(wp) :: scale, error_full, h_full, h
 
@@ -127,7 +127,10 @@ contains
         trial = integ
         trial%newton%tolerance = 8 * epsilon(1.0_wp)
         call trial%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
-        if (local%ok()) call pilot(trial, sys, q, p, plan, scale, local)
+        ! The plan's integrator is this set-up, untouched by the pilot's runs (a second
+        ! `init` would repeat the scheme's construction, as costly as some steps).
+        fresh = trial
+        if (local%ok()) call search(trial, sys, q, p, plan, scale, local)
         if (local%ok()) call full_span(trial, sys, q, p, T, tolerance, plan, scale, &
                                        error_full, h_full, local)
         if (.not. local%ok()) then
@@ -135,9 +138,10 @@ contains
             return
         end if
         ! Error at T ~ error_full (h / h_full)^(2M): meet tolerance / safety, with steps no
-        ! coarser than the coarse full-span run.
+        ! coarser than the coarsest the search found asymptotic (4 pilot_h, twice the
+        ! coarse span run's).
         h = h_full * (tolerance / (safety * error_full))**(1.0_wp / (2 * plan%order_m))
-        h = min(h, 2 * h_full)
+        h = min(h, 4 * plan%pilot_h)
         if (T / h > max_steps) then
             call set_status(status, HOLOSYM_INVALID_ARGUMENT, "the plan for " // &
                 real_str(tolerance) // " at T = " // real_str(T) // " needs " // &
@@ -150,10 +154,9 @@ contains
         plan%estimate = error_full * (plan%h / h_full)**(2 * plan%order_m)
         plan%newton_tolerance = max(8 * epsilon(1.0_wp), min(1.0e-3_wp, &
             tolerance / (newton_share * plan%steps * max(scale, 1.0_wp))))
-        trial%newton%tolerance = plan%newton_tolerance
-        call trial%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
-        if (local%ok()) integ = trial
-        call set_status(status, local%code, local%message)
+        fresh%newton%tolerance = plan%newton_tolerance
+        integ = fresh
+        call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine init_for_accuracy
 
     !> Pilot differences at or below this are round-off of a state of size `scale`.
@@ -200,6 +203,29 @@ contains
         plan%order_n = plan%order_m - 1
         plan%gauss_points = plan%order_m + 1
     end subroutine choose_order
+
+    !> The pilot's search for the asymptotic step (`pilot`), first without the general
+    !! step's fallback after a failed reduced step: the steps too large for the motion
+    !! that the search begins with fail at the cost of the reduced iteration alone. Only
+    !! when no step size passes that way is the search repeated with the integrator's
+    !! setting (a system that only the general step solves).
+    subroutine search(integ, sys, q, p, plan, scale, status)
+        type(constrained_integrator), intent(inout) :: integ
+        class(constrained_hamiltonian), intent(in), target :: sys
+        real(wp), intent(in) :: q(:), p(:), scale
+        type(accuracy_plan_t), intent(inout) :: plan
+        type(holosym_status_t), intent(out) :: status
+        logical :: fallback
+        real(wp) :: span
+        fallback = integ%general_fallback
+        span = plan%pilot_span
+        integ%general_fallback = .false.
+        call pilot(integ, sys, q, p, plan, scale, status)
+        integ%general_fallback = fallback
+        if (status%ok() .or. .not. fallback) return
+        plan%pilot_span = span
+        call pilot(integ, sys, q, p, plan, scale, status)
+    end subroutine search
 
     !> The pilot's search for the asymptotic step: runs with steps h_p, h_p/2, h_p/4 from
     !! the start (h_p halved until their differences shrink as h^(2M), or the finest run is

@@ -246,6 +246,12 @@ module holosym_integrator
         !> Step results from the last iterate's evaluation updated to first order (saves an
         !! evaluation per step) instead of a new evaluation at the solution.
         logical :: linear_increments = .true.
+        !> After a failed reduced step (not a fault of the system), solve it again with the
+        !! general step, whose Newton matrix is factored in working precision (systems of up
+        !! to 400 unknowns in the general step): nearly dependent constraints, real64 steps
+        !! at round-off. `.false.` lets such a step fail at once (as the pilot of
+        !! `init_for_accuracy` does while it searches for a step the motion allows).
+        logical :: general_fallback = .true.
         !> Work counters since init (read them; `reset_statistics` zeroes them).
         type(integrator_stats_t) :: stats
         !> Largest scaled residual of an accepted start state (see manifold_residuals).

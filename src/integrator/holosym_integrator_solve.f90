@@ -75,7 +75,7 @@ contains
         else
             call solve_reduced(self, sys, q, p, h, extrapolation, status)
             if (.not. (status%ok() .or. .not. self%path%general_ready .or. &
-                       is_system_fault(status%code))) then
+                       .not. self%general_fallback .or. is_system_fault(status%code))) then
                 ! The reduced step factors its Newton matrix in real64 only: where that is
                 ! too ill-conditioned (nearly dependent constraints), the general step of a
                 ! small system has working-precision factors to fall back on (from the
