@@ -874,7 +874,7 @@ contains
     subroutine fallback_setting(error)
         type(test_error_t), allocatable, intent(out) :: error
         type(spherical_pendulum) :: sys
-        type(constrained_integrator) :: integ
+        type(constrained_integrator) :: integs(2) ! one fresh integrator per setting
         type(holosym_status_t) :: status
         real(wp) :: q0(3), p0(3), q(3), p(3)
         logical :: fallback
@@ -883,15 +883,14 @@ contains
         call sys%initial_state(q0, p0)
         do k = 1, 2
             fallback = k == 1
-            integ = constrained_integrator()
-            integ%general_fallback = fallback
-            call integ%init(sys, 4, 3, 5, status)
+            integs(k)%general_fallback = fallback
+            call integs(k)%init(sys, 4, 3, 5, status)
             call check_status_code(error, status%code, HOLOSYM_SUCCESS, "init: " // &
                 status%message)
             if (allocated(error)) return
             q = q0
             p = p0
-            call integ%step(sys, q, p, 50.0_wp, status=status)
+            call integs(k)%step(sys, q, p, 50.0_wp, status=status)
             call check(error, .not. status%ok(), "h = 50 fails (fallback " // &
                 merge("on) ", "off)", fallback))
             call check(error, (index(status%message, "(after the ") > 0) .eqv. fallback, &
