@@ -15,7 +15,8 @@
 !! T; these two runs iterate Newton only to a tolerance derived from the request. The
 !! whole span is needed: a motion that starts slowly (the spring-linkage, released
 !! at rest) has errors after the first tenth orders of magnitude below those at T. The
-!! step is chosen to meet half the request (never coarser than the coarse span run),
+!! step is chosen to meet half the request (never coarser than the coarsest step the
+!! search found asymptotic, twice the coarse span run's),
 !! rounded so that T is a whole number of steps; the Newton tolerance is the request
 !! spread over the steps (at least 8 epsilon): a loose request needs no
 !! working-precision residual at all. docs/accuracy.md has the measurements.
@@ -80,7 +81,7 @@ module holosym_accuracy
     real(wp), parameter :: newton_share = 4
     !> The pilot's span runs keep their Newton errors this many times below the request
     !! (the difference they measure is 2^(2M) - 1 times the error of the finer, and the
-    !! plan's step is never coarser than theirs).
+    !! plan's step is at most twice the coarser's).
     real(wp), parameter :: span_share = 64
 
 contains
