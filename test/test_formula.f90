@@ -52,6 +52,7 @@ contains
             new_test("grammar_layout_continuations_comments", grammar_layout), &
             new_test("derivatives_of_every_function", every_function), &
             new_test("real64_tapes_agree", real64_tapes), &
+            new_test("tapes_at_many_points_agree_with_one_point", tapes_at_points), &
             new_test("structure_found_or_not", structure_cases), &
             new_test("parameters_by_name", parameters_by_name), &
             new_test("initial_states_projected_or_refused", initial_states), &
@@ -418,6 +419,105 @@ contains
         call check(error, maxval(abs(hq - h1)) <= 1.0e4_wp * step**2 * (1 + maxval(abs(h1))), &
             "d2H/dq2 against differences of the gradient: " // real_str(maxval(abs(hq - h1))))
     end subroutine every_function
+
+    !> The bindings at many points (one pass of each tape over the points, in groups) give
+    !! what the bindings of one point give at each, on every example model and on a model
+    !! whose tapes are longer than the evaluator's fixed work array, at 1, 2, 3 and 5
+    !! points (groups full and short).
+    subroutine tapes_at_points(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(formula_model) :: model
+        type(holosym_status_t) :: status
+        character(len=:), allocatable :: long
+        integer :: t, k
+        do t = 1, size(examples) + 1
+            if (t <= size(examples)) then
+                call twin(examples(t), model, error)
+                if (allocated(error)) return
+            else
+                long = "coordinates x y z" // new_line("a") // "momenta px py pz" // &
+                    new_line("a") // "let w0 = 0" // new_line("a")
+                do k = 1, 150
+                    long = long // "let w" // int_str(k) // " = w" // int_str(k - 1) // &
+                        " + 0.001*cos(z + " // int_str(k) // "/7)" // new_line("a")
+                end do
+                long = long // "hamiltonian (px^2 + py^2 + pz^2)/2 - sin(z) + w150" // &
+                    new_line("a") // "constraint x^2 + y^2 + z^2 - 1" // new_line("a") // &
+                    "initial x = 0, y = sqrt(2)/2, z = sqrt(2)/2, px = 0.6, py = 0, pz = 0"
+                call model_from_text(long, model, status)
+                call check(error, status%ok(), "long model: " // status%message)
+                if (allocated(error)) return
+                call check(error, maxval(model%tape_lengths()) > 512, "the long model's " // &
+                    "tapes exceed the fixed work array")
+                if (allocated(error)) return
+            end if
+            do k = 1, 5
+                if (k == 4) cycle
+                call compare_points(model, k, error)
+                if (allocated(error)) then
+                    if (t <= size(examples)) error%message = trim(examples(t)) // ": " // &
+                        error%message
+                    return
+                end if
+            end do
+        end do
+    end subroutine tapes_at_points
+
+    !> Every binding at k points near the model's initial state against the binding of one
+    !! point at each: equal (the same operations in the same order).
+    subroutine compare_points(model, k, error)
+        type(formula_model), intent(inout) :: model
+        integer, intent(in) :: k
+        type(test_error_t), allocatable, intent(inout) :: error
+        type(holosym_status_t) :: status
+        real(wp) :: q(model%n), p(model%n), qs(model%n, k), ps(model%n, k)
+        real(wp) :: many(model%n, k), one(model%n, k), phi(model%m, k), phi_one(model%m, k)
+        real(dp) :: low(model%n, k), low_one(model%n, k)
+        real(wp), allocatable :: pv(:, :), pv_one(:, :)
+        integer, allocatable :: rows(:), columns(:)
+        integer :: i, j
+        call model%initial_state(q, p, status)
+        do j = 1, k
+            do i = 1, model%n
+                qs(i, j) = q(i) + 1.0e-3_wp * sin(real(3 * i + 7 * j, wp))
+                ps(i, j) = p(i) + 1.0e-3_wp * cos(real(5 * i + 2 * j, wp))
+            end do
+        end do
+        call model%dh_dq_points(qs, ps, many)
+        do j = 1, k
+            call model%dh_dq(qs(:, j), ps(:, j), one(:, j))
+        end do
+        call check(error, all(many == one), "dh_dq_points at " // int_str(k) // " points")
+        if (allocated(error)) return
+        call model%dh_dp_points(qs, ps, many)
+        do j = 1, k
+            call model%dh_dp(qs(:, j), ps(:, j), one(:, j))
+        end do
+        call check(error, all(many == one), "dh_dp_points at " // int_str(k) // " points")
+        if (allocated(error)) return
+        call model%dh_dq_double_points(real(qs, dp), real(ps, dp), low)
+        do j = 1, k
+            call model%dh_dq_double(real(qs(:, j), dp), real(ps(:, j), dp), low_one(:, j))
+        end do
+        call check(error, all(low == low_one), "dh_dq_double_points at " // int_str(k) // &
+            " points")
+        if (allocated(error) .or. model%m == 0) return
+        call model%constraint_points(qs, phi)
+        do j = 1, k
+            call model%constraint(qs(:, j), phi_one(:, j))
+        end do
+        call check(error, all(phi == phi_one), "constraint_points at " // int_str(k) // &
+            " points")
+        if (allocated(error)) return
+        call model%constraint_sparsity(rows, columns)
+        allocate (pv(size(rows), k), pv_one(size(rows), k))
+        call model%constraint_jacobian_values_points(qs, rows, columns, pv)
+        do j = 1, k
+            call model%constraint_jacobian_values(qs(:, j), rows, columns, pv_one(:, j))
+        end do
+        call check(error, all(pv == pv_one), "constraint_jacobian_values_points at " // &
+            int_str(k) // " points")
+    end subroutine compare_points
 
     !> The real64 evaluation of dH/dq agrees with the working-precision one to real64
     !! round-off on every example model.

@@ -3,7 +3,9 @@
 !! of wrong procedure or declaration is refused with HOLOSYM_INCONSISTENT_SYSTEM naming it
 !! (a mass that does not match dh_dp, a sparsity that leaves out a nonzero, a Jacobian
 !! wrong in one entry, a wrong or zero Hessian, a wrong gradient, a potential pattern that
-!! leaves out a coupling, a wrong real64 gradient) instead of a wrong trajectory.
+!! leaves out a coupling, a wrong real64 gradient, procedures at many points that disagree
+!! with those of one point) instead of a wrong trajectory; procedures at many points that
+!! agree are used by the step.
 module test_system_check
     use holosym_kinds, only: wp, dp
     use holosym_status_codes, only: holosym_status_t, int_str, HOLOSYM_SUCCESS, &
@@ -71,6 +73,31 @@ module test_system_check
         procedure :: dh_dq_double => doubled_dh_dq
     end type wrong_double_pendulum
 
+    !> A spherical pendulum with its own procedures at many points, the formulas of one
+    !! point applied to every column (they count their calls: `batched_calls`).
+    type, extends(spherical_pendulum) :: batched_pendulum
+    contains
+        procedure :: dh_dq_points => batched_dh_dq
+        procedure :: dh_dq_double_points => batched_dh_dq_double
+        procedure :: constraint_points => batched_constraint
+        procedure :: constraint_jacobian_values_points => batched_values
+    end type batched_pendulum
+
+    !> A spherical pendulum whose dh_dq_points gives every point the first point's value.
+    type, extends(spherical_pendulum) :: first_point_pendulum
+    contains
+        procedure :: dh_dq_points => first_point_dh_dq
+    end type first_point_pendulum
+
+    !> A spherical pendulum whose constraint_points leaves out the last point.
+    type, extends(spherical_pendulum) :: short_constraint_pendulum
+    contains
+        procedure :: constraint_points => short_constraint
+    end type short_constraint_pendulum
+
+    !> Calls of the batched_pendulum's procedures at many points.
+    integer :: batched_calls = 0
+
 contains
 
     !> The tests of this suite.
@@ -88,6 +115,8 @@ contains
             new_test("refuses_a_potential_pattern_that_leaves_out_a_coupling", &
                      short_potential), &
             new_test("refuses_a_wrong_real64_gradient", wrong_double), &
+            new_test("refuses_procedures_at_many_points_that_disagree", wrong_points), &
+            new_test("uses_procedures_at_many_points_that_agree", batched_used), &
             new_test("can_be_switched_off", switched_off), &
             new_test("holosym_check_command", check_command_runs)]
     end function system_check_tests
@@ -167,6 +196,65 @@ contains
         real(dp), intent(out) :: gradient(:)
         gradient = [0.0_dp, 0.0_dp, -2 * cos(q(3))]
     end subroutine doubled_dh_dq
+
+    subroutine batched_dh_dq(self, q, p, gradients)
+        class(batched_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:, :), p(:, :)
+        real(wp), intent(out) :: gradients(:, :)
+        batched_calls = batched_calls + 1
+        gradients(1:2, :) = 0
+        gradients(3, :) = -self%mass * cos(q(3, :))
+    end subroutine batched_dh_dq
+
+    subroutine batched_dh_dq_double(self, q, p, gradients)
+        class(batched_pendulum), intent(in) :: self
+        real(dp), intent(in) :: q(:, :), p(:, :)
+        real(dp), intent(out) :: gradients(:, :)
+        batched_calls = batched_calls + 1
+        gradients(1:2, :) = 0
+        gradients(3, :) = -real(self%mass, dp) * cos(q(3, :))
+    end subroutine batched_dh_dq_double
+
+    subroutine batched_constraint(self, q, phi)
+        class(batched_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:, :)
+        real(wp), intent(out) :: phi(:, :)
+        batched_calls = batched_calls + 1
+        phi(1, :) = sum(q**2, dim=1) - self%length**2
+    end subroutine batched_constraint
+
+    subroutine batched_values(self, q, rows, columns, values)
+        class(batched_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:, :)
+        integer, intent(in) :: rows(:), columns(:)
+        real(wp), intent(out) :: values(:, :)
+        integer :: e
+        batched_calls = batched_calls + 1
+        do e = 1, size(rows)
+            values(e, :) = 2 * q(columns(e), :)
+        end do
+    end subroutine batched_values
+
+    subroutine first_point_dh_dq(self, q, p, gradients)
+        class(first_point_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:, :), p(:, :)
+        real(wp), intent(out) :: gradients(:, :)
+        integer :: j
+        do j = 1, size(q, 2)
+            call self%dh_dq(q(:, 1), p(:, 1), gradients(:, j))
+        end do
+    end subroutine first_point_dh_dq
+
+    subroutine short_constraint(self, q, phi)
+        class(short_constraint_pendulum), intent(in) :: self
+        real(wp), intent(in) :: q(:, :)
+        real(wp), intent(out) :: phi(:, :)
+        integer :: j
+        phi = 0
+        do j = 1, size(q, 2) - 1
+            call self%constraint(q(:, j), phi(:, j))
+        end do
+    end subroutine short_constraint
 
     ! ---------------------------------------------------------------- helpers
 
@@ -313,6 +401,59 @@ contains
         call sys%initial_state(q, p)
         call expect_refusal(error, sys, q, p, "dh_dq_double and dh_dq")
     end subroutine wrong_double
+
+    !> A batched procedure that ignores the column, or one that leaves out a point, is
+    !! refused by name (at the start, away from where the columns agree by chance).
+    subroutine wrong_points(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(first_point_pendulum) :: first
+        type(short_constraint_pendulum) :: short
+        real(wp) :: q(3), p(3)
+        first%spherical_pendulum = spherical_pendulum()
+        call first%initial_state(q, p)
+        call expect_refusal(error, first, q, p, "dh_dq_points and dh_dq")
+        if (allocated(error)) return
+        short%spherical_pendulum = spherical_pendulum()
+        call expect_refusal(error, short, q, p, "constraint_points and constraint")
+    end subroutine wrong_points
+
+    !> Procedures at many points that agree with those of one point pass the check, are
+    !! what the step calls, and give the trajectory of the pendulum without them (the same
+    !! formulas: to round-off).
+    subroutine batched_used(error)
+        type(test_error_t), allocatable, intent(out) :: error
+        type(batched_pendulum) :: batched
+        type(spherical_pendulum) :: plain
+        type(constrained_integrator) :: a, b
+        type(holosym_status_t) :: status
+        type(system_check_report_t) :: report
+        real(wp) :: qa(3), pa(3), qb(3), pb(3)
+        integer :: k
+        batched%spherical_pendulum = spherical_pendulum()
+        plain = spherical_pendulum()
+        call plain%initial_state(qa, pa)
+        qb = qa
+        pb = pa
+        call check_system(batched, qb, pb, report, status)
+        call check(error, status%ok() .and. report%passed(), "check: " // status%message)
+        if (allocated(error)) return
+        call a%init(plain, 4, 3, 5, status)
+        call b%init(batched, 4, 3, 5, status)
+        batched_calls = 0
+        do k = 1, 20
+            call a%step(plain, qa, pa, 0.25_wp, status=status)
+            call check(error, status%ok(), "plain step: " // status%message)
+            if (allocated(error)) return
+            call b%step(batched, qb, pb, 0.25_wp, status=status)
+            call check(error, status%ok(), "batched step: " // status%message)
+            if (allocated(error)) return
+        end do
+        call check(error, batched_calls >= 3 * 20, "the steps called the procedures at " // &
+            "many points: " // int_str(batched_calls) // " calls in 20 steps")
+        if (allocated(error)) return
+        call check(error, maxval(abs(qa - qb)) + maxval(abs(pa - pb)) <= 100 * epsilon(1.0_wp), &
+            "the same trajectory to round-off")
+    end subroutine batched_used
 
     !> With `check_system = .false.` the same wrong mass is taken as declared (the step
     !! succeeds): the check, not the scheme, refuses it.

@@ -22,6 +22,14 @@
 !! With both patterns declared, the step's linear algebra is banded (after a reordering
 !! of the unknowns) and its cost grows linearly with the size of a chain-like system.
 !!
+!! The steps evaluate the system at all Gauss points, or at all nodes, of a step in one
+!! call: `dh_dq_points`, `dh_dp_points`, `dh_dq_double_points`, `constraint_points` and
+!! `constraint_jacobian_values_points` take the points as the columns of a matrix. Their
+!! defaults call the procedures above point by point; a system overrides them to evaluate
+!! the points together (a loop over points inside each formula, which the compiler
+!! vectorizes; systems from formulas do so). An override must give what the procedure of
+!! one point gives, to round-off: the system check compares them.
+!!
 !! A procedure called at a point outside the system's domain (a square root of a negative
 !! number, a singular configuration of the model) calls `self%refuse(reason)` and returns
 !! any finite values: the library's call that needed the value fails with
@@ -80,6 +88,19 @@ module holosym_problem
         !> dH/dq in real64 arithmetic, for the reduced step's first (real64) Newton
         !! iterations (optional; default: `dh_dq` in working precision, rounded).
         procedure :: dh_dq_double => rounded_dh_dq
+        !> dH/dq at k points (the columns of q and p) in one call (optional; default:
+        !! `dh_dq` point by point).
+        procedure :: dh_dq_points => pointwise_dh_dq
+        !> dH/dp at k points in one call (optional; default: `dh_dp` point by point).
+        procedure :: dh_dp_points => pointwise_dh_dp
+        !> dH/dq in real64 at k points in one call (optional; default: `dh_dq_double` point
+        !! by point).
+        procedure :: dh_dq_double_points => pointwise_dh_dq_double
+        !> phi at k points in one call (optional; default: `constraint` point by point).
+        procedure :: constraint_points => pointwise_constraint
+        !> Phi at the declared pattern at k points in one call (optional; default:
+        !! `constraint_jacobian_values` point by point).
+        procedure :: constraint_jacobian_values_points => pointwise_constraint_values
         !> Say that the point of the current call lies outside the system's domain (call it
         !! from any of the procedures above, then return finite values).
         procedure, non_overridable :: refuse => refuse_point
@@ -257,6 +278,69 @@ contains
         call self%dh_dq(real(q, wp), real(p, wp), g)
         gradient = real(g, dp)
     end subroutine rounded_dh_dq
+
+    !> Default `dh_dq_points`: `dh_dq` at each point. An override evaluates all points in
+    !! one pass (gradients(:, j) = dH/dq(q(:, j), p(:, j)) to round-off).
+    subroutine pointwise_dh_dq(self, q, p, gradients)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        real(wp), intent(in) :: q(:, :)          !! coordinates (n x k), a point per column
+        real(wp), intent(in) :: p(:, :)          !! momenta (n x k)
+        real(wp), intent(out) :: gradients(:, :) !! dH/dq at each point (n x k)
+        integer :: j
+        do j = 1, size(q, 2)
+            call self%dh_dq(q(:, j), p(:, j), gradients(:, j))
+        end do
+    end subroutine pointwise_dh_dq
+
+    !> Default `dh_dp_points`: `dh_dp` at each point.
+    subroutine pointwise_dh_dp(self, q, p, gradients)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        real(wp), intent(in) :: q(:, :)          !! coordinates (n x k), a point per column
+        real(wp), intent(in) :: p(:, :)          !! momenta (n x k)
+        real(wp), intent(out) :: gradients(:, :) !! dH/dp at each point (n x k)
+        integer :: j
+        do j = 1, size(q, 2)
+            call self%dh_dp(q(:, j), p(:, j), gradients(:, j))
+        end do
+    end subroutine pointwise_dh_dp
+
+    !> Default `dh_dq_double_points`: `dh_dq_double` at each point.
+    subroutine pointwise_dh_dq_double(self, q, p, gradients)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        real(dp), intent(in) :: q(:, :)          !! coordinates (n x k), a point per column
+        real(dp), intent(in) :: p(:, :)          !! momenta (n x k)
+        real(dp), intent(out) :: gradients(:, :) !! dH/dq at each point (n x k)
+        integer :: j
+        do j = 1, size(q, 2)
+            call self%dh_dq_double(q(:, j), p(:, j), gradients(:, j))
+        end do
+    end subroutine pointwise_dh_dq_double
+
+    !> Default `constraint_points`: `constraint` at each point.
+    subroutine pointwise_constraint(self, q, phi)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        real(wp), intent(in) :: q(:, :)    !! coordinates (n x k), a point per column
+        real(wp), intent(out) :: phi(:, :) !! phi at each point (m x k)
+        integer :: j
+        do j = 1, size(q, 2)
+            call self%constraint(q(:, j), phi(:, j))
+        end do
+    end subroutine pointwise_constraint
+
+    !> Default `constraint_jacobian_values_points`: `constraint_jacobian_values` at each
+    !! point.
+    subroutine pointwise_constraint_values(self, q, rows, columns, values)
+        class(constrained_hamiltonian), intent(in) :: self !! the system
+        real(wp), intent(in) :: q(:, :)       !! coordinates (n x k), a point per column
+        integer, intent(in) :: rows(:)        !! pattern from `constraint_sparsity`
+        integer, intent(in) :: columns(:)     !! pattern from `constraint_sparsity`
+        real(wp), intent(out) :: values(:, :) !! values(e, j) = Phi(rows(e), columns(e)) at
+                                              !! point j
+        integer :: j
+        do j = 1, size(q, 2)
+            call self%constraint_jacobian_values(q(:, j), rows, columns, values(:, j))
+        end do
+    end subroutine pointwise_constraint_values
 
     !> Default `potential_sparsity`: every second derivative of U may be nonzero. An
     !! override returns the pairs (i, k) with d2U/dq_i dq_k possibly nonzero (either

@@ -12,7 +12,10 @@
 !!   `constraint_jacobian_values` with Phi at the pattern,
 !! - a declared `potential_sparsity` with the second derivatives of U (with a declared
 !!   mass: no nonzero left out),
-!! - `dh_dq_double` with `dh_dq`.
+!! - `dh_dq_double` with `dh_dq`,
+!! - the procedures at many points (`dh_dq_points`, `dh_dp_points`, `dh_dq_double_points`,
+!!   `constraint_points`, `constraint_jacobian_values_points`) with those of one point, at
+!!   the state and two points next to it, to round-off.
 !! The patterns are compared at the state and at a nearby state (an entry that vanishes
 !! by accident at one, as 2x at x = 0, shows at the other). A directional difference is
 !! Richardson-extrapolated from two step sizes, whose disagreement bounds its own error;
@@ -128,6 +131,7 @@ contains
             if (sys%m > 0) call check_constraint_pattern(sys, q, d, report)
             call check_potential_pattern(sys, q, d, report)
             call check_double_gradient(sys, q, p, report)
+            call check_points(sys, q, p, d, report)
             do k = 1, size(report%entries)
                 if (.not. report%entries(k)%passed) then
                     call failure_message(report%entries(k), message)
@@ -623,6 +627,105 @@ contains
         call add_entry(report, "dh_dq_double and dh_dq", worst, &
             1.0e3_wp * real(epsilon(1.0_dp), wp), "")
     end subroutine check_double_gradient
+
+    !> The procedures at many points against those of one point, at the state and at two
+    !! points next to it (a column each), to round-off (`exact_tolerance`; real64 round-off
+    !! for `dh_dq_double_points`).
+    subroutine check_points(sys, q, p, d, report)
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:), d(:, :)
+        type(system_check_report_t), intent(inout) :: report
+        integer, parameter :: k = 3
+        real(wp) :: qs(sys%n, k), ps(sys%n, k), many(sys%n, k), one(sys%n, k)
+        real(wp) :: phi_many(sys%m, k), phi_one(sys%m, k)
+        real(dp) :: low_q(sys%n, k), low_p(sys%n, k), low_many(sys%n, k), low_one(sys%n, k)
+        real(wp), allocatable :: pv_many(:, :), pv_one(:, :)
+        integer, allocatable :: rows(:), columns(:)
+        integer :: j
+        qs(:, 1) = q
+        qs(:, 2) = q + step_at(q) * d(:, 1)
+        qs(:, 3) = q - step_at(q) * d(:, 2)
+        ps(:, 1) = p
+        ps(:, 2) = p - step_at(p) * d(:, 2)
+        ps(:, 3) = p + step_at(p) * d(:, 1)
+        call sys%dh_dq_points(qs, ps, many)
+        do j = 1, k
+            call sys%dh_dq(qs(:, j), ps(:, j), one(:, j))
+        end do
+        call add_gap(report, "dh_dq_points and dh_dq", many, one, exact_tolerance())
+        call sys%dh_dp_points(qs, ps, many)
+        do j = 1, k
+            call sys%dh_dp(qs(:, j), ps(:, j), one(:, j))
+        end do
+        call add_gap(report, "dh_dp_points and dh_dp", many, one, exact_tolerance())
+        if (maxval(abs(qs)) > huge(1.0_dp) / 2 .or. maxval(abs(ps)) > huge(1.0_dp) / 2) then
+            call add_entry(report, "dh_dq_double_points and dh_dq_double", 0.0_wp, 0.0_wp, &
+                "", "not made: the state is beyond the range of real64")
+        else
+            low_q = real(qs, dp)
+            low_p = real(ps, dp)
+            call sys%dh_dq_double_points(low_q, low_p, low_many)
+            do j = 1, k
+                call sys%dh_dq_double(low_q(:, j), low_p(:, j), low_one(:, j))
+            end do
+            call add_gap(report, "dh_dq_double_points and dh_dq_double", real(low_many, wp), &
+                real(low_one, wp), 1.0e3_wp * real(epsilon(1.0_dp), wp))
+        end if
+        if (sys%m == 0) return
+        call sys%constraint_points(qs, phi_many)
+        do j = 1, k
+            call sys%constraint(qs(:, j), phi_one(:, j))
+        end do
+        call add_gap(report, "constraint_points and constraint", phi_many, phi_one, &
+            exact_tolerance())
+        call sys%constraint_sparsity(rows, columns)
+        if (size(rows) /= size(columns) .or. any(rows < 1) .or. any(rows > sys%m) .or. &
+            any(columns < 1) .or. any(columns > sys%n)) then
+            call add_entry(report, "constraint_jacobian_values_points and " // &
+                "constraint_jacobian_values", 0.0_wp, 0.0_wp, "", &
+                "not made: the declared pattern is invalid")
+            return
+        end if
+        allocate (pv_many(size(rows), k), pv_one(size(rows), k))
+        call sys%constraint_jacobian_values_points(qs, rows, columns, pv_many)
+        do j = 1, k
+            call sys%constraint_jacobian_values(qs(:, j), rows, columns, pv_one(:, j))
+        end do
+        call add_gap(report, "constraint_jacobian_values_points and " // &
+            "constraint_jacobian_values", pv_many, pv_one, exact_tolerance())
+    end subroutine check_points
+
+    !> Add the comparison of values at many points with those of one point: the largest
+    !! difference relative to the largest value of its point, and where it is.
+    subroutine add_gap(report, what, many, one, tolerance)
+        type(system_check_report_t), intent(inout) :: report
+        character(len=*), intent(in) :: what
+        real(wp), intent(in) :: many(:, :), one(:, :)
+        real(wp), intent(in) :: tolerance
+        real(wp) :: worst, gap, scale
+        integer :: i, j, at_i, at_j
+        worst = 0
+        at_i = 1
+        at_j = 1
+        do j = 1, size(one, 2)
+            scale = max(tiny(1.0_wp), maxval(abs(one(:, j)), mask=is_finite(one(:, j))))
+            do i = 1, size(one, 1)
+                if (.not. (is_finite(many(i, j)) .and. is_finite(one(i, j)))) then
+                    gap = not_finite
+                else
+                    gap = abs(many(i, j) - one(i, j)) / scale
+                end if
+                if (gap > worst) then
+                    worst = gap
+                    at_i = i
+                    at_j = j
+                end if
+            end do
+        end do
+        call add_entry(report, what, worst, tolerance, "entry " // int_str(at_i) // &
+            " at point " // int_str(at_j) // " of 3 (the state and two next to it)", &
+            show=worst > 0)
+    end subroutine add_gap
 
     !> The report as Markdown table lines: the header, then a line per comparison.
     function report_table(self) result(lines)

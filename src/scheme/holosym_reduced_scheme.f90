@@ -89,7 +89,11 @@ module holosym_reduced_scheme
         real(dp), allocatable :: low_qa(:), low_mass_over_h(:), low_inv_mass(:), low_p_zero(:)
         real(wp) :: h = 0
         ! Workspace of the user calls.
-        real(wp), allocatable :: q_work(:), p_zero(:), g_work(:), phi_work(:), pv_work(:)
+        real(wp), allocatable :: q_work(:), p_zero(:), g_work(:), pv_work(:)
+        !> The points of a residual's batched user calls: the nodes q_a + z_i (n x M), phi
+        !! and Phi's values there (m x M, nnz x M), zero momenta at the Gauss points (n x G).
+        real(wp), allocatable :: q_nodes(:, :), phi_nodes(:, :), pv_nodes(:, :), p_zeros(:, :)
+        real(dp), allocatable :: low_p_zeros(:, :)
         !> The Newton matrix and d(p_b - p_a)/dx, values in the layout's patterns.
         real(dp), allocatable :: jac_values(:), dp_values(:)
         integer, allocatable :: position(:)   ! column -> entry of the open row (nx)
@@ -293,13 +297,18 @@ contains
         allocate (self%x_eval(self%nx), self%qa(n), self%pa(n), self%mass_over_h(n), &
                   self%inv_mass(n), self%low_qa(n), self%low_mass_over_h(n), &
                   self%low_inv_mass(n), self%q_work(n), self%p_zero(n), self%g_work(n), &
-                  self%phi_work(m), self%pv_work(nnz))
+                  self%pv_work(nnz))
         self%p_zero = 0
         allocate (self%hwb(self%gauss_points, 0:self%order_m), self%hw(self%gauss_points), &
                   self%low_hwb(self%gauss_points, 0:self%order_m), &
                   self%low_hw(self%gauss_points))
         allocate (self%low_p_zero(n))
         self%low_p_zero = 0
+        allocate (self%q_nodes(n, self%order_m), self%phi_nodes(m, self%order_m), &
+                  self%pv_nodes(nnz, self%order_m), self%p_zeros(n, self%gauss_points), &
+                  self%low_p_zeros(n, self%gauss_points))
+        self%p_zeros = 0
+        self%low_p_zeros = 0
         self%inv_mass = 1 / self%mass
         self%low_inv_mass = real(self%inv_mass, dp)
         allocate (self%jac_values(size(self%layout%jac_col)), &
@@ -399,24 +408,22 @@ contains
         real(wp), intent(in) :: x(:)   !! unknowns (layout order)
         real(wp), intent(out) :: f(:)  !! residual (layout order)
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: g, i, l
+        integer :: i, l
         self%residuals = self%residuals + 1
         self%have_eval = .false.
         associate (ev => self%ev, lay => self%layout)
             call gather_wp(lay%z_col, lay%mu_col, x, ev)
             call positions_wp(self%tab, self%qa, ev)
-            do g = 1, self%gauss_points
-                call potential_gradient(self, ev%qg(:, g), ev%grad(:, g), status)
-                if (.not. status%ok()) return
-            end do
+            call gauss_gradients(self, ev%qg, ev%grad, status)
+            if (.not. status%ok()) return
+            call node_points(self, ev%z)
+            call nodes_values(self, ev%pv(:, 1:self%order_m), status)
+            if (.not. status%ok()) return
+            call nodes_constraints(self, status)
+            if (.not. status%ok()) return
             do i = 1, self%order_m
-                self%q_work = self%qa + ev%z(:, i)
-                call node_values(self, self%q_work, i, ev%pv(:, i), status)
-                if (.not. status%ok()) return
-                call constraint_values(self, self%q_work, status)
-                if (.not. status%ok()) return
-                do l = 1, size(self%phi_work)  ! element by element: no temporary
-                    f(lay%phi_row(l, i)) = self%phi_work(l)
+                do l = 1, self%m  ! element by element: no temporary
+                    f(lay%phi_row(l, i)) = self%phi_nodes(l, i)
                 end do
             end do
             call forces_wp(lay%phi_rows, lay%phi_cols, ev)
@@ -438,17 +445,94 @@ contains
         self%have_eval = .true.
     end subroutine reduced_residual
 
-    !> phi at q (user's constraint into phi_work), checked.
-    subroutine constraint_values(self, q, status)
+    !> grad U at the Gauss points (user's `dh_dq_points` with p = 0), checked.
+    subroutine gauss_gradients(self, qg, grad, status)
         class(reduced_scheme_t), intent(inout) :: self
-        real(wp), intent(in) :: q(:)
+        real(wp), intent(in) :: qg(:, :)     !! the Gauss points (n x G)
+        real(wp), intent(out) :: grad(:, :)  !! grad U there (n x G)
         type(holosym_status_t), intent(out) :: status
+        integer :: g
+        status%code = HOLOSYM_SUCCESS
+        call self%sys%dh_dq_points(qg, self%p_zeros, grad)
+        self%gradients = self%gradients + self%gauss_points
+        do g = 1, self%gauss_points
+            if (.not. all_finite(grad(:, g))) then
+                ! At a non-finite point: the step's overflow, not the system's fault.
+                if (.not. all(is_finite(qg(:, g)))) then
+                    call overflow(status)
+                else
+                    call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq returned a " // &
+                        "non-finite value at Gauss point " // int_str(g))
+                end if
+                return
+            end if
+        end do
+    end subroutine gauss_gradients
+
+    !> The nodes q_a + z_i, i = 1..M, into q_nodes.
+    pure subroutine node_points(self, z)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(in) :: z(:, :) !! the displacements (n x M)
+        integer :: c, i
+        do i = 1, self%order_m
+            do c = 1, self%n
+                self%q_nodes(c, i) = self%qa(c) + z(c, i)
+            end do
+        end do
+    end subroutine node_points
+
+    !> The nodes q_a + z_i from real64 displacements, into q_nodes.
+    pure subroutine lowered_node_points(self, z)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(dp), intent(in) :: z(:, :) !! the displacements (n x M), real64
+        integer :: c, i
+        do i = 1, self%order_m
+            do c = 1, self%n
+                self%q_nodes(c, i) = self%qa(c) + real(z(c, i), wp)
+            end do
+        end do
+    end subroutine lowered_node_points
+
+    !> Phi's values at the nodes q_nodes (one batched call), checked.
+    subroutine nodes_values(self, values, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        real(wp), intent(out) :: values(:, :) !! Phi at the pattern, a node per column
+        type(holosym_status_t), intent(out) :: status
+        integer :: i
         status%code = HOLOSYM_SUCCESS
         if (self%m == 0) return
-        call self%sys%constraint(q, self%phi_work)
-        if (.not. all_finite(self%phi_work)) call set_status(status, &
-            HOLOSYM_NONFINITE_VALUE, "constraint returned a non-finite value")
-    end subroutine constraint_values
+        call self%sys%constraint_jacobian_values_points(self%q_nodes, self%layout%phi_rows, &
+                                                        self%layout%phi_cols, values)
+        do i = 1, self%order_m
+            if (.not. all_finite(values(:, i))) then
+                if (.not. all(is_finite(self%q_nodes(:, i)))) then
+                    call overflow(status)
+                else
+                    call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+                        "constraint_jacobian_values returned a non-finite value at " // &
+                        "displacement node " // int_str(i))
+                end if
+                return
+            end if
+        end do
+    end subroutine nodes_values
+
+    !> phi at the nodes q_nodes (one batched call into phi_nodes), checked.
+    subroutine nodes_constraints(self, status)
+        class(reduced_scheme_t), intent(inout) :: self
+        type(holosym_status_t), intent(out) :: status
+        integer :: i
+        status%code = HOLOSYM_SUCCESS
+        if (self%m == 0) return
+        call self%sys%constraint_points(self%q_nodes, self%phi_nodes)
+        do i = 1, self%order_m
+            if (.not. all_finite(self%phi_nodes(:, i))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, &
+                    "constraint returned a non-finite value")
+                return
+            end if
+        end do
+    end subroutine nodes_constraints
 
     !> The residual with the sums in real64 at the real64 unknowns x; the gradient of U from
     !! the system's `dh_dq_double`, its other procedures with working-precision arguments;
@@ -458,29 +542,27 @@ contains
         real(dp), intent(in) :: x(:)   !! unknowns (layout order), real64
         real(dp), intent(out) :: f(:)  !! residual (layout order), real64
         type(holosym_status_t), intent(out) :: status !! non-finite user values
-        integer :: g, i, l
+        integer :: i, l
         self%lowered_residuals = self%lowered_residuals + 1
         associate (ev => self%low, lay => self%layout)
             call gather_dp(lay%z_col, lay%mu_col, x, ev)
             call positions_dp(self%low_tab, self%low_qa, ev)
-            do g = 1, self%gauss_points
-                call self%sys%dh_dq_double(ev%qg(:, g), self%low_p_zero, ev%grad(:, g))
-                self%gradients = self%gradients + 1
-                if (.not. all(ieee_is_finite(ev%grad(:, g)))) then
-                    call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq_double returned " &
-                        // "a non-finite value at a Gauss point")
-                    return
-                end if
-            end do
+            call self%sys%dh_dq_double_points(ev%qg, self%low_p_zeros, ev%grad)
+            self%gradients = self%gradients + self%gauss_points
+            if (.not. all(ieee_is_finite(ev%grad))) then
+                call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq_double returned " &
+                    // "a non-finite value at a Gauss point")
+                return
+            end if
+            call lowered_node_points(self, ev%z)
+            call nodes_values(self, self%pv_nodes, status)
+            if (.not. status%ok()) return
+            ev%pv(:, 1:self%order_m) = real(self%pv_nodes, dp)
+            call nodes_constraints(self, status)
+            if (.not. status%ok()) return
             do i = 1, self%order_m
-                self%q_work = self%qa + real(ev%z(:, i), wp)
-                call node_values(self, self%q_work, i, self%pv_work, status)
-                if (.not. status%ok()) return
-                ev%pv(:, i) = real(self%pv_work, dp)
-                call constraint_values(self, self%q_work, status)
-                if (.not. status%ok()) return
-                do l = 1, size(self%phi_work)  ! element by element: no temporary
-                    f(lay%phi_row(l, i)) = real(self%phi_work(l), dp)
+                do l = 1, self%m  ! element by element: no temporary
+                    f(lay%phi_row(l, i)) = real(self%phi_nodes(l, i), dp)
                 end do
             end do
             call forces_dp(lay%phi_rows, lay%phi_cols, ev)

@@ -472,9 +472,9 @@ contains
         do g = 1, self%gauss_points
             call gauss_state(self%tab, self%step, self%layout, g, x, self%q_gauss(:, g), &
                              self%p_gauss(:, g))
-            call gauss_gradients(self, g, status)
-            if (.not. status%ok()) return
         end do
+        call gauss_gradients(self, status)
+        if (.not. status%ok()) return
         call node_jacobians(self, x, status)
         if (.not. status%ok()) return
         call d_sums(self%tab, self%step, self%layout, x, self%hq_gauss, self%phi_jac, &
@@ -484,16 +484,18 @@ contains
         self%cache_lowered = .false.
     end subroutine evaluate
 
-    !> The user's gradients at Gauss point g (from q_gauss, p_gauss), checked.
-    subroutine gauss_gradients(self, g, status)
+    !> The user's gradients at the Gauss points (from q_gauss, p_gauss; one batched call
+    !! each), checked.
+    subroutine gauss_gradients(self, status)
         class(discrete_scheme), intent(inout) :: self
-        integer, intent(in) :: g
         type(holosym_status_t), intent(out) :: status
+        integer :: g
         status%code = HOLOSYM_SUCCESS
-        call self%sys%dh_dq(self%q_gauss(:, g), self%p_gauss(:, g), self%hq_gauss(:, g))
-        call self%sys%dh_dp(self%q_gauss(:, g), self%p_gauss(:, g), self%hp_gauss(:, g))
-        self%counters%gradients = self%counters%gradients + 2
-        if (.not. (all_finite(self%hq_gauss(:, g)) .and. all_finite(self%hp_gauss(:, g)))) then
+        call self%sys%dh_dq_points(self%q_gauss, self%p_gauss, self%hq_gauss)
+        call self%sys%dh_dp_points(self%q_gauss, self%p_gauss, self%hp_gauss)
+        self%counters%gradients = self%counters%gradients + 2 * self%gauss_points
+        do g = 1, self%gauss_points
+            if (all_finite(self%hq_gauss(:, g)) .and. all_finite(self%hp_gauss(:, g))) cycle
             ! A non-finite point is the step's overflow, not the system's fault.
             if (.not. (all_finite(self%q_gauss(:, g)) .and. all_finite(self%p_gauss(:, g)))) then
                 call overflow(status)
@@ -501,7 +503,8 @@ contains
                 call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq or dh_dp returned a " &
                     // "non-finite value at Gauss point " // int_str(g))
             end if
-        end if
+            return
+        end do
     end subroutine gauss_gradients
 
     !> Displacement nodes q_i = q_a + z_i and the constraint Jacobians there, checked.
@@ -554,14 +557,14 @@ contains
                 call gauss_state(low%tab, low%step, self%layout, g, low%x, low%q, low%p)
                 self%q_gauss(:, g) = real(low%q, wp)
                 self%p_gauss(:, g) = real(low%p, wp)
-                call gauss_gradients(self, g, status)
-                if (.not. status%ok()) return
-                lowered = all_below_exponent(self%hq_gauss(:, g), self%n, lowered_exponent) &
-                    .and. all_below_exponent(self%hp_gauss(:, g), self%n, lowered_exponent)
-                if (.not. lowered) return
-                low%hq(:, g) = real(self%hq_gauss(:, g), dp)
-                low%hp(:, g) = real(self%hp_gauss(:, g), dp)
             end do
+            call gauss_gradients(self, status)
+            if (.not. status%ok()) return
+            lowered = all_below_exponent(self%hq_gauss, size(self%hq_gauss), lowered_exponent) &
+                .and. all_below_exponent(self%hp_gauss, size(self%hp_gauss), lowered_exponent)
+            if (.not. lowered) return
+            low%hq = real(self%hq_gauss, dp)
+            low%hp = real(self%hp_gauss, dp)
             call node_jacobians(self, x, status)
             if (.not. status%ok()) return
             lowered = all_below_exponent(self%phi_jac, size(self%phi_jac), lowered_exponent)

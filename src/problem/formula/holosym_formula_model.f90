@@ -96,6 +96,12 @@ module holosym_formula_model
         procedure :: potential_sparsity => model_potential_sparsity
         !> dH/dq evaluated in real64.
         procedure :: dh_dq_double => model_dh_dq_double
+        !> The same at many points in one pass of each tape (vectorized across the points).
+        procedure :: dh_dq_points => model_dh_dq_points
+        procedure :: dh_dp_points => model_dh_dp_points
+        procedure :: dh_dq_double_points => model_dh_dq_double_points
+        procedure :: constraint_points => model_constraint_points
+        procedure :: constraint_jacobian_values_points => model_constraint_values_points
         !> Set a parameter by name.
         procedure :: set_parameter => model_set_parameter
         !> The value of a parameter by name.
@@ -1009,6 +1015,55 @@ contains
             values(e) = jacobian(rows(e), columns(e))
         end do
     end subroutine model_constraint_values
+
+    subroutine model_dh_dq_points(self, q, p, gradients)
+        class(formula_model), intent(in) :: self
+        real(wp), intent(in) :: q(:, :), p(:, :)
+        real(wp), intent(out) :: gradients(:, :)
+        call self%hq_tape%evaluate_points(q, p, self%values, gradients)
+    end subroutine model_dh_dq_points
+
+    subroutine model_dh_dp_points(self, q, p, gradients)
+        class(formula_model), intent(in) :: self
+        real(wp), intent(in) :: q(:, :), p(:, :)
+        real(wp), intent(out) :: gradients(:, :)
+        call self%hp_tape%evaluate_points(q, p, self%values, gradients)
+    end subroutine model_dh_dp_points
+
+    subroutine model_dh_dq_double_points(self, q, p, gradients)
+        class(formula_model), intent(in) :: self
+        real(dp), intent(in) :: q(:, :), p(:, :)
+        real(dp), intent(out) :: gradients(:, :)
+        call self%hq_tape%evaluate_points_dp(q, p, self%values_dp, gradients)
+    end subroutine model_dh_dq_double_points
+
+    subroutine model_constraint_points(self, q, phi)
+        class(formula_model), intent(in) :: self
+        real(wp), intent(in) :: q(:, :)
+        real(wp), intent(out) :: phi(:, :)
+        real(wp) :: none(0, size(q, 2))
+        call self%phi_tape%evaluate_points(q, none, self%values, phi)
+    end subroutine model_constraint_points
+
+    !> Phi at a pattern at many points: one pass of the tape when the pattern is the
+    !! model's own, else the entries gathered point by point.
+    subroutine model_constraint_values_points(self, q, rows, columns, values)
+        class(formula_model), intent(in) :: self
+        real(wp), intent(in) :: q(:, :)
+        integer, intent(in) :: rows(:), columns(:)
+        real(wp), intent(out) :: values(:, :)
+        real(wp) :: none(0, size(q, 2))
+        integer :: j
+        if (size(rows) == size(self%jac_rows)) then
+            if (all(rows == self%jac_rows) .and. all(columns == self%jac_cols)) then
+                call self%jac_tape%evaluate_points(q, none, self%values, values)
+                return
+            end if
+        end if
+        do j = 1, size(q, 2)
+            call self%constraint_jacobian_values(q(:, j), rows, columns, values(:, j))
+        end do
+    end subroutine model_constraint_values_points
 
     subroutine model_potential_sparsity(self, rows, columns)
         class(formula_model), intent(in) :: self

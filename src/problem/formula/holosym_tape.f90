@@ -9,15 +9,17 @@
 !! out by holosym_tape_kernels.inc): the counts, the indices of the inputs, the
 !! instructions as (operation, operand, operand) triples and the output slots, so that an
 !! evaluation passes two arrays. The same tape evaluates in working precision (`evaluate`)
-!! and in real64 (`evaluate_dp`, constants rounded once when the tape is built).
+!! and in real64 (`evaluate_dp`, constants rounded once when the tape is built), at one
+!! point or at many in one pass (`evaluate_points`, `evaluate_points_dp`: each instruction
+!! decoded once for all the points, the same values as point by point).
 !! Evaluation allocates nothing for tapes of up to `small_tape` slots, and is thread-safe:
 !! a tape is only read.
 module holosym_tape
     use holosym_kinds, only: wp, dp
     use holosym_expression, only: expression_graph_t, op_constant, op_variable, op_parameter, &
         op_power_int, locate_sorted
-    use holosym_tape_kernels_wp, only: run_tape_wp, header_length
-    use holosym_tape_kernels_dp, only: run_tape_dp
+    use holosym_tape_kernels_wp, only: run_tape_wp, run_tape_points_wp, header_length, tape_lanes
+    use holosym_tape_kernels_dp, only: run_tape_dp, run_tape_points_dp
     implicit none
     private
 
@@ -49,6 +51,10 @@ module holosym_tape
         procedure :: evaluate => tape_evaluate
         !> Evaluate in real64.
         procedure :: evaluate_dp => tape_evaluate_dp
+        !> Evaluate at many points in working precision.
+        procedure :: evaluate_points => tape_evaluate_points
+        !> Evaluate at many points in real64.
+        procedure :: evaluate_points_dp => tape_evaluate_points_dp
         !> Number of instructions.
         procedure :: length => tape_length
     end type tape_t
@@ -193,6 +199,52 @@ contains
             call run_tape_dp(self%code, self%constants_dp, q, p, parameters, large, out)
         end if
     end subroutine tape_evaluate_dp
+
+    !> The outputs at the points (q(:, j), p(:, j)), j = 1..k, in working precision:
+    !! out(:, j) as `evaluate` gives it at point j.
+    subroutine tape_evaluate_points(self, q, p, parameters, out)
+        class(tape_t), intent(in) :: self
+        real(wp), intent(in) :: q(:, :)       !! coordinates (n x k)
+        real(wp), intent(in) :: p(:, :)       !! momenta (n x k, or 0 x k: none read)
+        real(wp), intent(in) :: parameters(:) !! parameter values
+        real(wp), intent(out) :: out(:, :)    !! the outputs (outputs x k)
+        real(wp) :: small(tape_lanes * small_tape)
+        real(wp), allocatable :: large(:)
+        integer :: k
+        k = size(q, 2)
+        if (k == 0) return
+        if (self%slots <= small_tape) then
+            call run_tape_points_wp(self%code, self%constants, k, q, max(1, size(q, 1)), p, &
+                max(1, size(p, 1)), parameters, small, out, max(1, size(out, 1)))
+        else
+            allocate (large(tape_lanes * self%slots))
+            call run_tape_points_wp(self%code, self%constants, k, q, max(1, size(q, 1)), p, &
+                max(1, size(p, 1)), parameters, large, out, max(1, size(out, 1)))
+        end if
+    end subroutine tape_evaluate_points
+
+    !> The outputs at the points (q(:, j), p(:, j)), j = 1..k, in real64: out(:, j) as
+    !! `evaluate_dp` gives it at point j.
+    subroutine tape_evaluate_points_dp(self, q, p, parameters, out)
+        class(tape_t), intent(in) :: self
+        real(dp), intent(in) :: q(:, :)       !! coordinates (n x k)
+        real(dp), intent(in) :: p(:, :)       !! momenta (n x k, or 0 x k: none read)
+        real(dp), intent(in) :: parameters(:) !! parameter values, rounded
+        real(dp), intent(out) :: out(:, :)    !! the outputs (outputs x k)
+        real(dp) :: small(tape_lanes * small_tape)
+        real(dp), allocatable :: large(:)
+        integer :: k
+        k = size(q, 2)
+        if (k == 0) return
+        if (self%slots <= small_tape) then
+            call run_tape_points_dp(self%code, self%constants_dp, k, q, max(1, size(q, 1)), &
+                p, max(1, size(p, 1)), parameters, small, out, max(1, size(out, 1)))
+        else
+            allocate (large(tape_lanes * self%slots))
+            call run_tape_points_dp(self%code, self%constants_dp, k, q, max(1, size(q, 1)), &
+                p, max(1, size(p, 1)), parameters, large, out, max(1, size(out, 1)))
+        end if
+    end subroutine tape_evaluate_points_dp
 
     !> Number of instructions.
     pure integer function tape_length(self)

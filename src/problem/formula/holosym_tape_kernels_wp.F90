@@ -12,9 +12,10 @@ module holosym_tape_kernels_wp
     !> SHA-256 of include/holosym_tape_kernels.inc as compiled into this module
     !! (tools/include_digest.sh keeps it current; the test suite compares it with the file).
     character(len=*), parameter, public :: template_sha256 = &
-        "27abf84ebb1dbd4424c7110b7824e2835b46f0dd120e7fba6562492d476a1663"
+        "e9615f8e6d9d1d9f5f18154f6ea8f5154e565685798eaa5066be13e943973358"
 
 #define TAPE_RUN run_tape_wp
+#define TAPE_RUN_POINTS run_tape_points_wp
 #include "holosym_tape_kernels.inc"
 
 end module holosym_tape_kernels_wp
