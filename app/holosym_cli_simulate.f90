@@ -70,6 +70,9 @@ module holosym_cli_simulate
         !> --iteration: the iteration of the step's equations ('automatic' or 'newton',
         !! `constrained_integrator%iteration`).
         character(len=:), allocatable :: iteration
+        !> --sums: the inner sums of the residual ('working' or 'double-double',
+        !! `constrained_integrator%residual_sums`).
+        character(len=:), allocatable :: sums
         !> --accuracy: the requested max |error| of q and p at T (0: not given); holosym
         !! then chooses (M, N, G), h and the Newton tolerance (`init_for_accuracy`).
         real(wp) :: accuracy = 0
@@ -104,6 +107,8 @@ module holosym_cli_simulate
         !> Newton matrices formed and factored, and iterations without one, over all steps
         !! (the integrator's `stats`).
         integer(int64) :: factorizations = 0, approximate_iterations = 0
+        !> Working-precision residuals summed in double-double arithmetic.
+        integer(int64) :: paired_residuals = 0
         !> Wall-clock seconds of the integration.
         real(wp) :: wall_time = 0
     end type simulate_summary_t
@@ -195,6 +200,11 @@ contains
             "                 where that contracts (the reduced step); newton: with the", &
             "                 Newton matrix throughout; the same states to the Newton", &
             "                 tolerance                                      [automatic]", &
+            "  --sums NAME    the residual's inner sums: working (working precision),", &
+            "                 double-double (pairs of real64, 106 bits; real128 build,", &
+            "                 Newton tolerance at least 2^-100, as --accuracy derives", &
+            "                 it for loose requests) or automatic (double-double where", &
+            "                 allowed)                                       [automatic]", &
             "  -h, --help     show this help", &
             "", &
             "Columns: t,q1..qn,p1..pn,lambda1..lambdam,H,energy_error,constraint_residual,", &
@@ -259,7 +269,7 @@ contains
                 config%plain = .true.
             case ("--system", "--M", "--m", "--N", "--n", "--G", "--g", "--h", "--T", "--t", &
                   "--steps", "--every", "--output", "--links", "--model", "--set", "--accuracy", &
-                  "--events", "--iteration")
+                  "--events", "--iteration", "--sums")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
                 call config%source%take(name, value, taken, status)
@@ -364,6 +374,10 @@ contains
             config%iteration = value
             call require(value == "automatic" .or. value == "newton", &
                          "'automatic' or 'newton'")
+        case ("--sums")
+            config%sums = value
+            call require(value == "automatic" .or. value == "working" .or. &
+                         value == "double-double", "'automatic', 'working' or 'double-double'")
         end select
     contains
         !> Fail with "option NAME must be BOUND; got VALUE" unless `condition` holds.
@@ -456,6 +470,7 @@ contains
             integrator%linear_increments = .false.
         end if
         if (allocated(config%iteration)) integrator%iteration = config%iteration
+        if (allocated(config%sums)) integrator%residual_sums = config%sums
         order = [config%order_m, config%order_n, config%gauss_points]
         h = config%step_size
         steps = config%steps
@@ -530,6 +545,7 @@ contains
         call system_clock(clock_end)
         writer%summary%factorizations = integrator%stats%lu_factorizations
         writer%summary%approximate_iterations = integrator%stats%approximate_iterations
+        writer%summary%paired_residuals = integrator%stats%paired_residual_evaluations
         writer%summary%wall_time = real(clock_end - writer%clock_start, wp) / writer%clock_rate
         ! Everything written so far reaches its file (or fails) before the summary.
         if (associated(writer%sink, file)) then
@@ -624,10 +640,11 @@ contains
     subroutine write_summary(err_unit, summary)
         integer, intent(in) :: err_unit                  !! unit for the summary
         type(simulate_summary_t), intent(in) :: summary  !! what the run did
-        character(len=32) :: seconds, mean, approximate, matrices
+        character(len=32) :: seconds, mean, approximate, matrices, paired
         write (seconds, '(f16.3)') summary%wall_time
         write (approximate, '(i0)') summary%approximate_iterations
         write (matrices, '(i0)') summary%factorizations
+        write (paired, '(i0)') summary%paired_residuals
         mean = "0"
         if (summary%steps_done > 0) write (mean, '(f16.2)') &
             real(summary%newton_iterations, wp) / summary%steps_done
@@ -635,7 +652,8 @@ contains
             " steps, " // int_str(summary%rows) // " rows in " // trim(adjustl(seconds)) // &
             " s; Newton iterations per step " // trim(adjustl(mean)) // " (max " // &
             int_str(summary%max_newton_iterations) // "; " // trim(approximate) // &
-            " without the Newton matrix, " // trim(matrices) // " Newton matrices)"
+            " without the Newton matrix, " // trim(matrices) // " Newton matrices, " // &
+            trim(paired) // " residuals summed in double-double)"
         write (err_unit, '(a)') "holosym simulate: max |energy error| " // &
             real_str(summary%max_energy_error) // ", max |phi| " // &
             real_str(summary%max_constraint_residual) // ", max |Phi H_p| " // &

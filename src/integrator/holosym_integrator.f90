@@ -144,6 +144,9 @@ module holosym_integrator
         !> Newton iterations with the iteration matrix without curvature instead of the
         !! Newton matrix (`iteration = 'automatic'` on the reduced step).
         integer(int64) :: approximate_iterations = 0
+        !> Working-precision residuals whose inner sums were in double-double arithmetic
+        !! (`residual_sums = 'double-double'`).
+        integer(int64) :: paired_residual_evaluations = 0
     end type integrator_stats_t
 
     !> The dense output of the step that `integrate` has just taken: q~, p~ and lambda~ at
@@ -243,6 +246,14 @@ module holosym_integrator
         !! the Newton matrix elsewhere; the general step always with the Newton matrix) or
         !! 'newton' (the Newton matrix throughout).
         character(len=16) :: iteration = "automatic"
+        !> The inner sums of the reduced step's working-precision residual (its Gauss
+        !! positions and node sums, most of its real128 arithmetic): 'double-double' (pairs
+        !! of real64 numbers, 106 bits: real128 build only, with `newton%tolerance` at
+        !! least `double_double_floor` = 2^-100, above the sums' rounding of about 2^-104
+        !! of their terms), 'working' (working precision), or 'automatic': double-double
+        !! wherever it may be used (real128, that tolerance), else working precision. The
+        !! general step, also as the reduced step's fallback, sums in working precision.
+        character(len=16) :: residual_sums = "automatic"
         !> Step results from the last iterate's evaluation updated to first order (saves an
         !! evaluation per step) instead of a new evaluation at the solution.
         logical :: linear_increments = .true.
@@ -371,6 +382,10 @@ module holosym_integrator
             class(constrained_integrator), intent(in) :: self !! the integrator
             character(len=:), allocatable, intent(out) :: message !! "" or the setting at fault
         end function settings_valid
+        !> Whether the reduced step sums in double-double arithmetic (`residual_sums`).
+        pure module logical function paired_sums(self)
+            class(constrained_integrator), intent(in) :: self !! the integrator
+        end function paired_sums
         !> Largest scaled constraint residual of an accepted end state.
         pure module real(wp) function end_tolerance(self)
             class(constrained_integrator), intent(in) :: self !! the integrator

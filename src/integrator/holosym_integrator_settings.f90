@@ -6,6 +6,7 @@ submodule (holosym_integrator) holosym_settings_checks
     use holosym_newton, only: newton_settings_valid, LINEAR_SOLVER_NATIVE, LINEAR_SOLVER_MIXED
     use holosym_scheme, only: JACOBIAN_ASSEMBLED, JACOBIAN_RESIDUAL_DIFFERENCES, &
         HESSIANS_USER, HESSIANS_DIFFERENCES
+    use holosym_reduced_kernels_dd, only: double_double_floor
     implicit none
 
     !> A step whose end state misses a constraint by more than this (scaled as in
@@ -17,7 +18,9 @@ contains
 
     !> Whether every setting of the integrator is in its range; `message` names the first
     !! that is not: the Newton settings (`newton_settings_valid`), 0 < manifold_tolerance < 1
-    !! (finite) and the option strings (linear_solver, jacobian, hessians, iteration).
+    !! (finite) and the option strings (linear_solver, jacobian, hessians, iteration,
+    !! residual_sums: an explicit 'double-double' only in real128, on the reduced step,
+    !! with a Newton tolerance of at least `double_double_floor`).
     module logical function settings_valid(self, message)
         class(constrained_integrator), intent(in) :: self
         character(len=:), allocatable, intent(out) :: message
@@ -64,12 +67,53 @@ contains
                     trim(self%iteration) // "'"
             end select
         end if
+        if (len(message) == 0) call check_residual_sums(self, message)
         if (len(message) == 0 .and. self%path%main == STEP_REDUCED) then
             option = refused_option(self)
             if (option > 0) message = reduced_refusal(self, option)
         end if
         settings_valid = len(message) == 0
     end function settings_valid
+
+    !> The `residual_sums` setting: its value, and where 'double-double' applies.
+    subroutine check_residual_sums(self, message)
+        class(constrained_integrator), intent(in) :: self
+        character(len=:), allocatable, intent(inout) :: message
+        select case (self%residual_sums)
+        case ("automatic", "working")
+        case ("double-double")
+            if (wp_is_double) then
+                message = "residual_sums = 'double-double' is for the real128 build " // &
+                    "(real64 sums are already cheaper)"
+            else if (self%path%main /= STEP_REDUCED) then
+                message = "residual_sums = 'double-double' needs the reduced step (a " // &
+                    "system declaring diagonal_mass, structured = .true.)"
+            else if (self%newton%tolerance < double_double_floor) then
+                message = "residual_sums = 'double-double' needs newton%tolerance >= " // &
+                    real_str(double_double_floor) // " (the sums' rounding); got " // &
+                    real_str(self%newton%tolerance)
+            end if
+        case default
+            message = "residual_sums must be 'automatic', 'working' or 'double-double'; " // &
+                "got '" // trim(self%residual_sums) // "'"
+        end select
+    end subroutine check_residual_sums
+
+    !> Whether the reduced step sums its working-precision residuals in double-double
+    !! arithmetic: `residual_sums` 'double-double', or 'automatic' in real128 with a Newton
+    !! tolerance of at least `double_double_floor`.
+    pure module logical function paired_sums(self)
+        class(constrained_integrator), intent(in) :: self
+        select case (self%residual_sums)
+        case ("double-double")
+            paired_sums = .true.
+        case ("automatic")
+            paired_sums = .not. wp_is_double
+            if (paired_sums) paired_sums = self%newton%tolerance >= double_double_floor
+        case default
+            paired_sums = .false.
+        end select
+    end function paired_sums
 
     !> The first option the reduced step does not honour (1 simplified, 2 presolve, 3
     !! linear_solver, 4 jacobian, 5 linear_increments, 6 hessians 'user', 7 hessians

@@ -354,9 +354,12 @@ contains
         call self%reduced%solve(sys, q, p, h, self%newton, stagnation_floor(self%newton), &
             self%extrapolate .and. extrapolation .and. continues_last_step(self, q, p), &
             self%dq_work, self%dp_work, report, status, &
-            approximate=self%iteration == "automatic")
+            approximate=self%iteration == "automatic", &
+            double_double=paired_sums(self))
         self%stats%approximate_iterations = self%stats%approximate_iterations + &
             report%approximate
+        self%stats%paired_residual_evaluations = self%stats%paired_residual_evaluations + &
+            report%paired_residuals
         if (status%ok()) then
             if (.not. (all_finite(self%dq_work) .and. all_finite(self%dp_work))) &
                 call set_status(status, HOLOSYM_NEWTON_DIVERGED, "step produced a " // &

@@ -42,6 +42,8 @@ module holosym_reduced_scheme
     use holosym_factors, only: real64_factors_t
     use holosym_reduced_layout, only: reduced_layout_t
     use holosym_reduced_multipliers, only: multiplier_solve_t
+    use holosym_reduced_kernels_dd, only: dd_tables_t, dd_tables_init, dd_step_tables, dd_fits, &
+        dd_gauss_positions, dd_node_sums
     use holosym_reduced_kernels_wp, only: tables_wp => reduced_tables, &
         evaluation_wp => reduced_evaluation, allocate_evaluation_wp => allocate_evaluation, &
         gather_wp => gather_unknowns, positions_wp => gauss_positions, &
@@ -109,8 +111,15 @@ module holosym_reduced_scheme
         real(wp), allocatable :: hqq(:, :), hqp(:, :), hpp(:, :), phi_hess(:, :, :)
         !> The iteration matrix without curvature (`holosym_reduced_multipliers`).
         type(multiplier_solve_t) :: fixed
-        !> User calls of the evaluations (gradients of U, constraint values, Phi values).
+        !> The inner sums of the working-precision residual in double-double arithmetic
+        !! (`holosym_reduced_kernels_dd`): asked for this step (`set_step`), and the step's
+        !! tables within their range.
+        type(dd_tables_t) :: dd
+        logical :: dd_step = .false.
+        !> User calls of the evaluations (gradients of U, constraint values, Phi values);
+        !! `paired_residuals` counts the residuals summed in double-double arithmetic.
         integer :: residuals = 0, lowered_residuals = 0, jacobians = 0, gradients = 0
+        integer :: paired_residuals = 0
     contains
         procedure :: init => reduced_init
         procedure :: set_step => reduced_set_step
@@ -211,6 +220,7 @@ contains
         self%nx = self%layout%nx
         call build_tables(self)
         call allocate_workspace(self)
+        call dd_tables_init(self%tab, self%n, self%dd)
         call self%fixed%init(self%layout, self%tab%st, self%tab%wl, self%mass)
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine reduced_init
@@ -328,13 +338,16 @@ contains
     end subroutine allocate_workspace
 
     !> Bind the system, the start state and h for the next solve. Phi at q_a is evaluated
-    !! here, once per step. Code HOLOSYM_NONFINITE_VALUE.
-    subroutine reduced_set_step(self, sys, qa, pa, h, status)
+    !! here, once per step. With `double_double` the working-precision residuals of the step
+    !! sum in double-double arithmetic (where their values are in its range). Code
+    !! HOLOSYM_NONFINITE_VALUE.
+    subroutine reduced_set_step(self, sys, qa, pa, h, status, double_double)
         class(reduced_scheme_t), intent(inout) :: self
         class(constrained_hamiltonian), intent(in), target :: sys !! the system
         real(wp), intent(in) :: qa(:), pa(:) !! start state
         real(wp), intent(in) :: h            !! step size
         type(holosym_status_t), intent(out) :: status !! outcome
+        logical, intent(in), optional :: double_double !! sum in double-double arithmetic
         self%sys => sys
         self%qa = qa
         self%pa = pa
@@ -347,6 +360,11 @@ contains
         self%low_qa = real(qa, dp)
         self%low_mass_over_h = real(self%mass_over_h, dp)
         self%have_eval = .false.
+        self%dd_step = .false.
+        if (present(double_double)) then
+            if (double_double) call dd_step_tables(h, self%mass_over_h, qa, self%dd, &
+                                                   self%dd_step)
+        end if
         call node_values(self, qa, 0, self%ev%pv(:, 0), status)
         self%low%pv(:, 0) = real(self%ev%pv(:, 0), dp)
     end subroutine reduced_set_step
@@ -409,11 +427,18 @@ contains
         real(wp), intent(out) :: f(:)  !! residual (layout order)
         type(holosym_status_t), intent(out) :: status !! non-finite user values
         integer :: i, l
+        logical :: paired
         self%residuals = self%residuals + 1
         self%have_eval = .false.
         associate (ev => self%ev, lay => self%layout)
             call gather_wp(lay%z_col, lay%mu_col, x, ev)
-            call positions_wp(self%tab, self%qa, ev)
+            paired = self%dd_step
+            if (paired) paired = dd_fits(ev%z, size(ev%z))
+            if (paired) then
+                call dd_gauss_positions(self%dd, ev)
+            else
+                call positions_wp(self%tab, self%qa, ev)
+            end if
             call gauss_gradients(self, ev%qg, ev%grad, status)
             if (.not. status%ok()) return
             call node_points(self, ev%z)
@@ -427,8 +452,15 @@ contains
                 end do
             end do
             call forces_wp(lay%phi_rows, lay%phi_cols, ev)
-            call sums_wp(self%tab, self%hwb, self%hw, self%mass_over_h, self%inv_mass, &
-                         lay%phi_rows, lay%phi_cols, ev)
+            if (paired) paired = dd_fits(ev%grad, size(ev%grad))
+            if (paired) then
+                call dd_node_sums(self%dd, self%tab%wl, self%inv_mass, lay%phi_rows, &
+                                  lay%phi_cols, ev)
+                self%paired_residuals = self%paired_residuals + 1
+            else
+                call sums_wp(self%tab, self%hwb, self%hw, self%mass_over_h, self%inv_mass, &
+                             lay%phi_rows, lay%phi_cols, ev)
+            end if
             call rows_wp(lay%d_row, lay%v_row, self%pa, ev, f)
         end associate
         if (refusal_pending()) then

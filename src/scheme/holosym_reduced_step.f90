@@ -29,6 +29,7 @@ module holosym_reduced_step
         integer :: lowered_residuals = 0     !! real64 residuals (including the Jacobians')
         integer :: factorizations = 0        !! Newton matrices formed and factored
         integer :: approximate = 0           !! iterations without the Newton matrix
+        integer :: paired_residuals = 0      !! residuals summed in double-double arithmetic
         real(wp) :: pivot_ratio = 0          !! of the factors in use
     end type reduced_report_t
 
@@ -90,12 +91,14 @@ contains
     !! `max_iterations`, `max_growth`, `contraction_limit`, `jacobian_cost`,
     !! `pivot_tolerance` act as in `newton_solve`; `continues` starts from the previous
     !! accepted step's polynomials (when its h is the same); `approximate` iterates first
-    !! without the Newton matrix where that contracts (default: no). On failure the kept factors
-    !! and the previous step are dropped. Codes: HOLOSYM_SINGULAR_MATRIX,
+    !! without the Newton matrix where that contracts (default: no); `double_double` sums
+    !! the working-precision residuals in double-double arithmetic (default: no). On
+    !! failure the kept factors and the previous step are dropped. Codes:
+    !! HOLOSYM_SINGULAR_MATRIX,
     !! HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED (also equations that overflow),
     !! HOLOSYM_NONFINITE_VALUE (from the system's procedures).
     subroutine step_solve(self, sys, q, p, h, settings, stagnation, continues, dq, dpb, &
-                          report, status, approximate)
+                          report, status, approximate, double_double)
         class(reduced_step_t), intent(inout), target :: self
         class(constrained_hamiltonian), intent(in), target :: sys
         real(wp), intent(in) :: q(:), p(:), h
@@ -106,14 +109,16 @@ contains
         type(reduced_report_t), intent(out) :: report
         type(holosym_status_t), intent(out) :: status
         logical, intent(in), optional :: approximate !! without the Newton matrix first
+        logical, intent(in), optional :: double_double !! residual sums in double-double
         type(reduced_equations) :: equations
         type(kept_report_t) :: work
         real(wp) :: scale
-        integer :: residuals0, lowered0
+        integer :: residuals0, lowered0, paired0
 
         residuals0 = self%scheme%residuals
         lowered0 = self%scheme%lowered_residuals
-        call self%scheme%set_step(sys, q, p, h, status)
+        paired0 = self%scheme%paired_residuals
+        call self%scheme%set_step(sys, q, p, h, status, double_double)
         if (.not. status%ok()) return
         equations%scheme => self%scheme
         scale = max(maxval(abs(q)), maxval(abs(p)))
@@ -141,6 +146,7 @@ contains
         report%approximate = work%approximate
         report%residuals = self%scheme%residuals - residuals0
         report%lowered_residuals = self%scheme%lowered_residuals - lowered0
+        report%paired_residuals = self%scheme%paired_residuals - paired0
         report%pivot_ratio = real(self%newton%factors%pivot_ratio, wp)
         if (.not. status%ok()) then
             call self%newton%invalidate()
