@@ -6,7 +6,7 @@
 !!
 !! Run: `fpm run --profile release --example declarations`.
 !! Output:
-!!     check of the declarations: passed, 11 comparisons made
+!!     check of the declarations: passed, 16 comparisons made
 !!     plain:    q(2) =  -0.2003688  -0.9797205   0.1958395  -1.8978812
 !!     declared: q(2) =  -0.2003688  -0.9797205   0.1958395  -1.8978812
 !!     largest difference of the two states: below 1e-30: T
