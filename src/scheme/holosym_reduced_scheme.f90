@@ -88,12 +88,13 @@ module holosym_reduced_scheme
         !> h w_g B(g, i) and h w_g of the step (working precision and real64).
         real(wp), allocatable :: hwb(:, :), hw(:)
         real(dp), allocatable :: low_hwb(:, :), low_hw(:)
-        real(dp), allocatable :: low_qa(:), low_mass_over_h(:), low_inv_mass(:), low_p_zero(:)
+        real(dp), allocatable :: low_qa(:), low_mass_over_h(:), low_inv_mass(:)
         real(wp) :: h = 0
         ! Workspace of the user calls.
-        real(wp), allocatable :: q_work(:), p_zero(:), g_work(:), pv_work(:)
+        real(wp), allocatable :: q_work(:), g_work(:), pv_work(:)
         !> The points of a residual's batched user calls: the nodes q_a + z_i (n x M), phi
-        !! and Phi's values there (m x M, nnz x M), zero momenta at the Gauss points (n x G).
+        !! and Phi's values there (m x M, nnz x M), zero momenta at the Gauss points (n x G;
+        !! its first column the zero momentum of the calls at one point).
         real(wp), allocatable :: q_nodes(:, :), phi_nodes(:, :), pv_nodes(:, :), p_zeros(:, :)
         real(dp), allocatable :: low_p_zeros(:, :)
         !> The Newton matrix and d(p_b - p_a)/dx, values in the layout's patterns.
@@ -306,14 +307,10 @@ contains
         call allocate_evaluation_dp(self%low, n, m, self%order_m, self%gauss_points, nnz)
         allocate (self%x_eval(self%nx), self%qa(n), self%pa(n), self%mass_over_h(n), &
                   self%inv_mass(n), self%low_qa(n), self%low_mass_over_h(n), &
-                  self%low_inv_mass(n), self%q_work(n), self%p_zero(n), self%g_work(n), &
-                  self%pv_work(nnz))
-        self%p_zero = 0
+                  self%low_inv_mass(n), self%q_work(n), self%g_work(n), self%pv_work(nnz))
         allocate (self%hwb(self%gauss_points, 0:self%order_m), self%hw(self%gauss_points), &
                   self%low_hwb(self%gauss_points, 0:self%order_m), &
                   self%low_hw(self%gauss_points))
-        allocate (self%low_p_zero(n))
-        self%low_p_zero = 0
         allocate (self%q_nodes(n, self%order_m), self%phi_nodes(m, self%order_m), &
                   self%pv_nodes(nnz, self%order_m), self%p_zeros(n, self%gauss_points), &
                   self%low_p_zeros(n, self%gauss_points))
@@ -380,15 +377,7 @@ contains
         if (self%m == 0) return
         call self%sys%constraint_jacobian_values(q, self%layout%phi_rows, self%layout%phi_cols, &
                                                  values)
-        if (.not. all_finite(values)) then
-            ! At a non-finite point: the step's overflow, not the system's fault.
-            if (.not. all(is_finite(q))) then
-                call overflow(status)
-            else
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint_jacobian_values " &
-                    // "returned a non-finite value at displacement node " // int_str(i))
-            end if
-        end if
+        call check_values(q, values, "constraint_jacobian_values", "displacement node", i, status)
     end subroutine node_values
 
     !> grad U at q (user's dh_dq with p = 0), checked.
@@ -398,18 +387,31 @@ contains
         real(wp), intent(out) :: gradient(:)
         type(holosym_status_t), intent(out) :: status
         status%code = HOLOSYM_SUCCESS
-        call self%sys%dh_dq(q, self%p_zero, gradient)
+        call self%sys%dh_dq(q, self%p_zeros(:, 1), gradient)
         self%gradients = self%gradients + 1
-        if (.not. all_finite(gradient)) then
-            ! At a non-finite point: the step's overflow, not the system's fault.
-            if (.not. all(is_finite(q))) then
-                call overflow(status)
-            else
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq returned a " // &
-                    "non-finite value at a Gauss point")
-            end if
-        end if
+        call check_values(q, gradient, "dh_dq", "Gauss point", 0, status)
     end subroutine potential_gradient
+
+    !> The check of the values a system's procedure returned at point q: a non-finite value
+    !! at a finite q is the procedure's (code HOLOSYM_NONFINITE_VALUE, naming the procedure
+    !! and the point: `where`, then `i` when positive); at a non-finite q the step's own
+    !! overflow. Status unchanged when all values are finite.
+    subroutine check_values(q, values, procedure_name, where, i, status)
+        real(wp), intent(in) :: q(:), values(:)
+        character(len=*), intent(in) :: procedure_name, where
+        integer, intent(in) :: i
+        type(holosym_status_t), intent(inout) :: status
+        if (all_finite(values)) return
+        if (.not. all(is_finite(q))) then
+            call overflow(status)
+        else if (i > 0) then
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, procedure_name // " returned a " // &
+                "non-finite value at " // where // " " // int_str(i))
+        else
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, procedure_name // " returned a " // &
+                "non-finite value at a " // where)
+        end if
+    end subroutine check_values
 
     !> The step's own arithmetic gave a non-finite point from finite values of the system
     !! (h or the Newton iterate too large): code HOLOSYM_NEWTON_DIVERGED, not a fault of the
@@ -488,16 +490,8 @@ contains
         call self%sys%dh_dq_points(qg, self%p_zeros, grad)
         self%gradients = self%gradients + self%gauss_points
         do g = 1, self%gauss_points
-            if (.not. all_finite(grad(:, g))) then
-                ! At a non-finite point: the step's overflow, not the system's fault.
-                if (.not. all(is_finite(qg(:, g)))) then
-                    call overflow(status)
-                else
-                    call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dq returned a " // &
-                        "non-finite value at Gauss point " // int_str(g))
-                end if
-                return
-            end if
+            call check_values(qg(:, g), grad(:, g), "dh_dq", "Gauss point", g, status)
+            if (.not. status%ok()) return
         end do
     end subroutine gauss_gradients
 
@@ -513,18 +507,6 @@ contains
         end do
     end subroutine node_points
 
-    !> The nodes q_a + z_i from real64 displacements, into q_nodes.
-    pure subroutine lowered_node_points(self, z)
-        class(reduced_scheme_t), intent(inout) :: self
-        real(dp), intent(in) :: z(:, :) !! the displacements (n x M), real64
-        integer :: c, i
-        do i = 1, self%order_m
-            do c = 1, self%n
-                self%q_nodes(c, i) = self%qa(c) + real(z(c, i), wp)
-            end do
-        end do
-    end subroutine lowered_node_points
-
     !> Phi's values at the nodes q_nodes (one batched call), checked.
     subroutine nodes_values(self, values, status)
         class(reduced_scheme_t), intent(inout) :: self
@@ -536,16 +518,9 @@ contains
         call self%sys%constraint_jacobian_values_points(self%q_nodes, self%layout%phi_rows, &
                                                         self%layout%phi_cols, values)
         do i = 1, self%order_m
-            if (.not. all_finite(values(:, i))) then
-                if (.not. all(is_finite(self%q_nodes(:, i)))) then
-                    call overflow(status)
-                else
-                    call set_status(status, HOLOSYM_NONFINITE_VALUE, &
-                        "constraint_jacobian_values returned a non-finite value at " // &
-                        "displacement node " // int_str(i))
-                end if
-                return
-            end if
+            call check_values(self%q_nodes(:, i), values(:, i), "constraint_jacobian_values", &
+                              "displacement node", i, status)
+            if (.not. status%ok()) return
         end do
     end subroutine nodes_values
 
@@ -558,11 +533,9 @@ contains
         if (self%m == 0) return
         call self%sys%constraint_points(self%q_nodes, self%phi_nodes)
         do i = 1, self%order_m
-            if (.not. all_finite(self%phi_nodes(:, i))) then
-                call set_status(status, HOLOSYM_NONFINITE_VALUE, &
-                    "constraint returned a non-finite value")
-                return
-            end if
+            call check_values(self%q_nodes(:, i), self%phi_nodes(:, i), "constraint", &
+                              "displacement node", i, status)
+            if (.not. status%ok()) return
         end do
     end subroutine nodes_constraints
 
@@ -586,7 +559,7 @@ contains
                     // "a non-finite value at a Gauss point")
                 return
             end if
-            call lowered_node_points(self, ev%z)
+            call node_points(self, real(ev%z, wp))
             call nodes_values(self, self%pv_nodes, status)
             if (.not. status%ok()) return
             ev%pv(:, 1:self%order_m) = real(self%pv_nodes, dp)
@@ -896,7 +869,7 @@ contains
         real(dp), intent(out) :: values(:)
         type(holosym_status_t), intent(inout) :: status
         integer :: c, a
-        call self%sys%hessian(q, self%p_zero, self%hqq, self%hqp, self%hpp)
+        call self%sys%hessian(q, self%p_zeros(:, 1), self%hqq, self%hqp, self%hpp)
         if (.not. (all(ieee_is_finite(self%hqq)) .and. all(ieee_is_finite(self%hqp)) .and. &
                    all(ieee_is_finite(self%hpp)))) then
             call set_status(status, HOLOSYM_NONFINITE_VALUE, "hessian returned NaN or Inf")
