@@ -1008,7 +1008,8 @@ contains
         type(bench_row_t), intent(in) :: steps_rows(:) !! per-step comparison rows
         type(output_t), intent(inout) :: out           !! where the Markdown goes
         logical, intent(in), optional :: nested        !! headings one level down
-        integer :: t, s, best, rival, taylor, precision, c, variant, plain
+        integer :: t, s, k, best, rival, taylor, precision, c, variant, plain
+        integer, allocatable :: pairs(:, :)
         character(len=:), allocatable :: line, prec, level
         real(real64) :: per_step, plain_step
         real(wp) :: difference
@@ -1037,42 +1038,42 @@ contains
                 "RATTLE config | RATTLE s | x RATTLE | heyoka config | heyoka s | x heyoka | " &
                 // "heyoka compile s | heyoka max residual | heyoka energy error |")
             call out%line("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-            do t = 1, size(bench_targets)
-                if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
-                do s = 1, size(bench_systems)
-                    if (.not. any(rows%system == bench_systems(s))) cycle
-                    best = cheapest(rows, trim(bench_systems(s)), "holosym", trim(prec), &
-                                    bench_targets(t))
-                    rival = cheapest(rows, trim(bench_systems(s)), "rattle", trim(prec), &
-                                     bench_targets(t))
-                    taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
-                                      bench_targets(t))
-                    line = "| " // trim(real_str(bench_targets(t))) // " | " // &
-                        trim(bench_systems(s)) // " | "
-                    if (best > 0) then
-                        line = line // config_text(rows(best)) // " | " // &
-                            seconds_text(rows(best)%seconds) // " | "
-                    else
-                        line = line // "— | — | "
-                    end if
-                    if (rival > 0) then
-                        line = line // config_text(rows(rival)) // " | " // &
-                            seconds_text(rows(rival)%seconds) // " | " // &
-                            ratio(rival) // " | "
-                    else
-                        line = line // "— | — | — | "
-                    end if
-                    if (taylor > 0) then
-                        line = line // heyoka_text(rows(taylor)) // " | " // &
-                            seconds_text(rows(taylor)%seconds) // " | " // ratio(taylor) // &
-                            " | " // seconds_text(rows(taylor)%compile_seconds) // " | " // &
-                            short_real(rows(taylor)%constraint_residual) // " | " // &
-                            short_real(rows(taylor)%energy_error) // " |"
-                    else
-                        line = line // "— | — | — | — | — | — |"
-                    end if
-                    call out%line(line)
-                end do
+            pairs = bench_pairs(trim(prec))
+            do k = 1, size(pairs, 2)
+                t = pairs(1, k)
+                s = pairs(2, k)
+                if (.not. any(rows%system == bench_systems(s))) cycle
+                best = cheapest(rows, trim(bench_systems(s)), "holosym", trim(prec), &
+                                bench_targets(t))
+                rival = cheapest(rows, trim(bench_systems(s)), "rattle", trim(prec), &
+                                 bench_targets(t))
+                taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
+                                  bench_targets(t))
+                line = "| " // trim(real_str(bench_targets(t))) // " | " // &
+                    trim(bench_systems(s)) // " | "
+                if (best > 0) then
+                    line = line // config_text(rows(best)) // " | " // &
+                        seconds_text(rows(best)%seconds) // " | "
+                else
+                    line = line // "— | — | "
+                end if
+                if (rival > 0) then
+                    line = line // config_text(rows(rival)) // " | " // &
+                        seconds_text(rows(rival)%seconds) // " | " // &
+                        ratio(rival) // " | "
+                else
+                    line = line // "— | — | — | "
+                end if
+                if (taylor > 0) then
+                    line = line // heyoka_text(rows(taylor)) // " | " // &
+                        seconds_text(rows(taylor)%seconds) // " | " // ratio(taylor) // &
+                        " | " // seconds_text(rows(taylor)%compile_seconds) // " | " // &
+                        short_real(rows(taylor)%constraint_residual) // " | " // &
+                        short_real(rows(taylor)%energy_error) // " |"
+                else
+                    line = line // "— | — | — | — | — | — |"
+                end if
+                call out%line(line)
             end do
         end do
         call accuracy_summary(rows, out, level)
@@ -1120,6 +1121,24 @@ contains
         end function ratio
     end subroutine write_summary
 
+    !> The (target, system) pairs of a precision's tables: column k holds the index into
+    !! `bench_targets` and into `bench_systems`, targets in order, systems within a target.
+    pure function bench_pairs(precision) result(pairs)
+        character(len=*), intent(in) :: precision !! real128 or real64
+        integer, allocatable :: pairs(:, :)
+        integer :: t, s, k
+        allocate (pairs(2, count([(target_in_precision(bench_targets(t), precision), &
+                                   t = 1, size(bench_targets))]) * size(bench_systems)))
+        k = 0
+        do t = 1, size(bench_targets)
+            if (.not. target_in_precision(bench_targets(t), precision)) cycle
+            do s = 1, size(bench_systems)
+                k = k + 1
+                pairs(:, k) = [t, s]
+            end do
+        end do
+    end function bench_pairs
+
     !> The row through --accuracy of a system, precision and target (0: none).
     pure integer function accuracy_index(rows, system, precision, target) result(found)
         type(bench_row_t), intent(in) :: rows(:)
@@ -1141,7 +1160,8 @@ contains
         type(bench_row_t), intent(in) :: rows(:)
         type(output_t), intent(inout) :: out
         character(len=*), intent(in) :: level
-        integer :: precision, t, s, chosen, taylor
+        integer :: precision, t, s, k, chosen, taylor
+        integer, allocatable :: pairs(:, :)
         character(len=:), allocatable :: prec, line
         do precision = 2, 1, -1
             prec = merge("real128", "real64 ", precision == 2)
@@ -1157,38 +1177,38 @@ contains
             call out%line("| target | system | plan | error at T | pilot s | run s | " // &
                 "heyoka s | x heyoka (run) | x heyoka (pilot + run) |")
             call out%line("|---|---|---|---|---|---|---|---|---|")
-            do t = 1, size(bench_targets)
-                if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
-                do s = 1, size(bench_systems)
-                    chosen = accuracy_index(rows, trim(bench_systems(s)), trim(prec), &
-                                            bench_targets(t))
-                    if (chosen == 0) cycle
-                    taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
-                                      bench_targets(t))
-                    line = "| " // trim(real_str(bench_targets(t))) // " | " // &
-                        trim(bench_systems(s)) // " | "
-                    if (rows(chosen)%code /= HOLOSYM_SUCCESS) then
-                        line = line // "refused: " // trim(status_code_name(rows(chosen)%code)) &
-                            // " | — | — | — | "
-                    else
-                        line = line // config_text(rows(chosen)) // ", " // &
-                            int_str(rows(chosen)%steps) // " steps | " // &
-                            short_real(rows(chosen)%error) // " | " // &
-                            seconds_text(rows(chosen)%compile_seconds) // " | " // &
-                            seconds_text(rows(chosen)%seconds) // " | "
-                    end if
-                    if (taylor > 0 .and. rows(chosen)%code == HOLOSYM_SUCCESS) then
-                        line = line // seconds_text(rows(taylor)%seconds) // " | " // &
-                            ratio_text(rows(taylor)%seconds / rows(chosen)%seconds) // " | " // &
-                            ratio_text(rows(taylor)%seconds / (rows(chosen)%seconds + &
-                            rows(chosen)%compile_seconds)) // " |"
-                    else if (taylor > 0) then
-                        line = line // seconds_text(rows(taylor)%seconds) // " | — | — |"
-                    else
-                        line = line // "— | — | — |"
-                    end if
-                    call out%line(line)
-                end do
+            pairs = bench_pairs(trim(prec))
+            do k = 1, size(pairs, 2)
+                t = pairs(1, k)
+                s = pairs(2, k)
+                chosen = accuracy_index(rows, trim(bench_systems(s)), trim(prec), &
+                                        bench_targets(t))
+                if (chosen == 0) cycle
+                taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
+                                  bench_targets(t))
+                line = "| " // trim(real_str(bench_targets(t))) // " | " // &
+                    trim(bench_systems(s)) // " | "
+                if (rows(chosen)%code /= HOLOSYM_SUCCESS) then
+                    line = line // "refused: " // trim(status_code_name(rows(chosen)%code)) &
+                        // " | — | — | — | "
+                else
+                    line = line // config_text(rows(chosen)) // ", " // &
+                        int_str(rows(chosen)%steps) // " steps | " // &
+                        short_real(rows(chosen)%error) // " | " // &
+                        seconds_text(rows(chosen)%compile_seconds) // " | " // &
+                        seconds_text(rows(chosen)%seconds) // " | "
+                end if
+                if (taylor > 0 .and. rows(chosen)%code == HOLOSYM_SUCCESS) then
+                    line = line // seconds_text(rows(taylor)%seconds) // " | " // &
+                        ratio_text(rows(taylor)%seconds / rows(chosen)%seconds) // " | " // &
+                        ratio_text(rows(taylor)%seconds / (rows(chosen)%seconds + &
+                        rows(chosen)%compile_seconds)) // " |"
+                else if (taylor > 0) then
+                    line = line // seconds_text(rows(taylor)%seconds) // " | — | — |"
+                else
+                    line = line // "— | — | — |"
+                end if
+                call out%line(line)
             end do
         end do
     end subroutine accuracy_summary
@@ -1316,7 +1336,8 @@ contains
     subroutine target_verdicts(rows, unit)
         type(bench_row_t), intent(in) :: rows(:)
         type(output_t), intent(inout) :: unit !! the page
-        integer :: precision, t, s, best, taylor, met, total
+        integer :: precision, t, s, k, best, taylor, met, total
+        integer, allocatable :: pairs(:, :)
         real(real64) :: required, ratio, worst
         character(len=:), allocatable :: prec, smallest
         do precision = 1, 2
@@ -1325,20 +1346,20 @@ contains
             met = 0
             total = 0
             worst = huge(1.0_real64)
-            do t = 1, size(bench_targets)
-                if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
-                do s = 1, size(bench_systems)
-                    taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
-                                      bench_targets(t))
-                    if (taylor == 0) cycle  ! heyoka does not reach it: no comparison
-                    total = total + 1
-                    best = cheapest(rows, trim(bench_systems(s)), "holosym", trim(prec), &
-                                    bench_targets(t))
-                    if (best == 0) cycle
-                    ratio = rows(taylor)%seconds / rows(best)%seconds
-                    worst = min(worst, ratio)
-                    if (ratio >= required) met = met + 1
-                end do
+            pairs = bench_pairs(trim(prec))
+            do k = 1, size(pairs, 2)
+                t = pairs(1, k)
+                s = pairs(2, k)
+                taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
+                                  bench_targets(t))
+                if (taylor == 0) cycle  ! heyoka does not reach it: no comparison
+                total = total + 1
+                best = cheapest(rows, trim(bench_systems(s)), "holosym", trim(prec), &
+                                bench_targets(t))
+                if (best == 0) cycle
+                ratio = rows(taylor)%seconds / rows(best)%seconds
+                worst = min(worst, ratio)
+                if (ratio >= required) met = met + 1
             end do
             if (total == 0) then
                 call unit%line("- " // trim(prec) // ": no heyoka rows (run with --heyoka).")
@@ -1360,7 +1381,8 @@ contains
     subroutine accuracy_verdicts(rows, unit)
         type(bench_row_t), intent(in) :: rows(:)
         type(output_t), intent(inout) :: unit !! the page
-        integer :: precision, t, s, chosen, taylor, met, total
+        integer :: precision, t, s, k, chosen, taylor, met, total
+        integer, allocatable :: pairs(:, :)
         real(real64) :: required, ratio, worst
         real(wp) :: overshoot
         character(len=:), allocatable :: prec, smallest
@@ -1372,24 +1394,24 @@ contains
             total = 0
             worst = huge(1.0_real64)
             overshoot = 0
-            do t = 1, size(bench_targets)
-                if (.not. target_in_precision(bench_targets(t), trim(prec))) cycle
-                do s = 1, size(bench_systems)
-                    chosen = accuracy_index(rows, trim(bench_systems(s)), trim(prec), &
-                                            bench_targets(t))
-                    if (chosen == 0) cycle
-                    if (rows(chosen)%code == HOLOSYM_SUCCESS) overshoot = max(overshoot, &
-                        rows(chosen)%error / bench_targets(t))
-                    taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
-                                      bench_targets(t))
-                    if (taylor == 0) cycle  ! heyoka does not reach it: no comparison
-                    total = total + 1
-                    if (rows(chosen)%code /= HOLOSYM_SUCCESS) cycle
-                    ratio = rows(taylor)%seconds / (rows(chosen)%seconds + &
-                                                    rows(chosen)%compile_seconds)
-                    worst = min(worst, ratio)
-                    if (ratio >= required) met = met + 1
-                end do
+            pairs = bench_pairs(trim(prec))
+            do k = 1, size(pairs, 2)
+                t = pairs(1, k)
+                s = pairs(2, k)
+                chosen = accuracy_index(rows, trim(bench_systems(s)), trim(prec), &
+                                        bench_targets(t))
+                if (chosen == 0) cycle
+                if (rows(chosen)%code == HOLOSYM_SUCCESS) overshoot = max(overshoot, &
+                    rows(chosen)%error / bench_targets(t))
+                taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
+                                  bench_targets(t))
+                if (taylor == 0) cycle  ! heyoka does not reach it: no comparison
+                total = total + 1
+                if (rows(chosen)%code /= HOLOSYM_SUCCESS) cycle
+                ratio = rows(taylor)%seconds / (rows(chosen)%seconds + &
+                                                rows(chosen)%compile_seconds)
+                worst = min(worst, ratio)
+                if (ratio >= required) met = met + 1
             end do
             smallest = "—"
             if (worst < huge(1.0_real64)) smallest = ratio_text(worst)
