@@ -169,14 +169,17 @@ bench-accuracy: deps include-digest
 	$(PYTHON) tools/replace_section.py docs/accuracy.md $(BENCH_DIR)/accuracy.md
 	$(PYTHON) tools/replace_section.py docs/accuracy.md $(BENCH_DIR)/accuracy64.md
 
-# The long runs (planar pendulum to T = 1e4 and 1e5, spherical pendulum to 1e4) against
-# heyoka, into $(BENCH_DIR)/long.csv; about an hour of CPU. Then docs/performance.md again.
+# The long runs (planar and spherical pendulum to T = 1e4, planar to 1e5) against heyoka,
+# into $(BENCH_DIR)/long.csv; then its section of docs/performance.md (the other sections
+# come from `make bench`).
 bench-long: deps include-digest
 	./tools/bench_venv.sh $(BENCH_VENV) > /dev/null
 	mkdir -p $(BENCH_DIR)
 	$(FPM) run $(FPM_FLAGS) -- bench --long --out $(BENCH_DIR) --heyoka $(BENCH_PYTHON) \
 		$(LONG_ARGS)
-	$(MAKE) bench-report
+	awk '/^## /{keep = ($$0 == "## Long runs")} keep' $(BENCH_DIR)/performance.md \
+		> $(BENCH_DIR)/long.md
+	$(PYTHON) tools/replace_section.py docs/performance.md $(BENCH_DIR)/long.md
 
 # Summary, plots and docs/performance.md from the CSV files in $(BENCH_DIR).
 bench-report: deps include-digest

@@ -6,7 +6,9 @@
 !! halved from 1 until the error at T is below the smallest target; the cheapest run of
 !! each configuration reaching each target (1e-20, 1e-24) is then run again, untimed,
 !! with the whole-run max |phi|, max |Phi H_p| and energy error measured after every
-!! step. With --heyoka PYTHON, tools/heyoka_bench.py runs the index-1 form over a sweep
+!! step. Then, as `holosym simulate --accuracy TARGET --T T` runs it, holosym through
+!! `init_for_accuracy` for each target (method holosym-accuracy: seconds the pilot and
+!! the run together, compile_seconds the pilot; monitored again untimed). With --heyoka PYTHON, tools/heyoka_bench.py runs the index-1 form over a sweep
 !! of tolerances on the same reference. Rows go to DIR/long.csv, rewritten through
 !! `output_t` after each row (so that a full disk fails the command and an interrupted
 !! run keeps its rows); heyoka's rows come through a scratch file, checked, and Python
@@ -21,6 +23,7 @@ module holosym_bench_long
     use holosym_status_codes, only: holosym_status_t, int_str, real_str, real_field, HOLOSYM_SUCCESS
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator, step_observer, step_info_t
+    use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy
     use holosym_manifold, only: manifold_residuals
     use holosym_systems, only: make_system
     use holosym_cli_common, only: fail, csv_real
@@ -124,8 +127,9 @@ contains
         logical, intent(in) :: quick           !! the short variant for tests
         integer, intent(in) :: err_unit        !! progress
         type(holosym_status_t), intent(inout) :: status !! I/O or set-up failure
-        character(len=8), parameter :: systems(3) = [character(len=8) :: "planar", "planar", &
-                                                     "pendulum"]
+        ! The longest case last: an interrupted run keeps the rows of the others.
+        character(len=8), parameter :: systems(3) = [character(len=8) :: "planar", &
+                                                     "pendulum", "planar"]
         real(wp) :: spans(3), span, h_ref, change, h, error, best(2), previous
         class(constrained_hamiltonian), allocatable :: sys
         real(wp), allocatable :: q0(:), p0(:), q_ref(:), p_ref(:), q1(:), p1(:)
@@ -141,10 +145,10 @@ contains
             return
         end if
         if (quick) then
-            spans = [20.0_wp, 20.0_wp, 10.0_wp]
+            spans = [20.0_wp, 10.0_wp, 20.0_wp]
             h_ref = 0.125_wp
         else
-            spans = [1.0e4_wp, 1.0e5_wp, 1.0e4_wp]
+            spans = [1.0e4_wp, 1.0e4_wp, 1.0e5_wp]
             h_ref = 0.0625_wp
         end if
         out_path = dir // "/long.csv"
@@ -154,7 +158,7 @@ contains
         call write_lines(out_path, lines, status)
         if (.not. status%ok()) return
         do c = 1, size(systems)
-            if (quick .and. c == 2) cycle
+            if (quick .and. c == 3) cycle
             span = spans(c)
             call make_system(trim(systems(c)), sys, q0, p0, status)
             if (.not. status%ok()) return
@@ -200,6 +204,10 @@ contains
                     h = h / 2
                 end do
             end do
+            do t = 1, size(long_targets)
+                call record_accuracy(long_targets(t))
+                if (.not. status%ok()) return
+            end do
             if (len(python) > 0) then
                 call heyoka_long(trim(systems(c)))
                 if (.not. status%ok()) return
@@ -224,6 +232,53 @@ contains
                 // csv_real(real(seconds, wp)) // ",0," // int_str(run_status%code))
             call write_lines(out_path, lines, status)
         end subroutine record
+
+        !> holosym through `init_for_accuracy` to `target` at T: the pilot and the run
+        !! timed, then the plan's run again (a copy of the integrator as planned) with the
+        !! monitor; its row appended.
+        subroutine record_accuracy(target)
+            real(wp), intent(in) :: target
+            type(constrained_integrator) :: integ, planned
+            type(accuracy_plan_t) :: plan
+            real(wp) :: q(size(q0)), p(size(p0)), run_error
+            real(real64) :: start, chosen, finish
+            q = q0
+            p = p0
+            run_error = huge(1.0_wp)
+            monitor%energy0 = sys%hamiltonian(q0, p0)
+            monitor%max_phi = 0
+            monitor%max_hidden = 0
+            monitor%energy_error = 0
+            call cpu_time(start)
+            call init_for_accuracy(integ, sys, q, p, target, span, plan, run_status)
+            call cpu_time(chosen)
+            planned = integ
+            if (run_status%ok()) call integ%integrate(sys, q, p, plan%h, plan%steps, &
+                                                      status=run_status)
+            call cpu_time(finish)
+            if (run_status%ok()) then
+                run_error = max(maxval(abs(q - q_ref)), maxval(abs(p - p_ref)))
+                q = q0
+                p = p0
+                call planned%integrate(sys, q, p, plan%h, plan%steps, observer=monitor, &
+                                       status=run_status)
+            end if
+            write (err_unit, '(a)') "bench --long: " // trim(systems(c)) // " --accuracy " // &
+                real_str(target) // ": (" // int_str(plan%order_m) // " " // &
+                int_str(plan%order_n) // " " // int_str(plan%gauss_points) // ") h = " // &
+                real_str(plan%h) // ", error " // real_str(run_error) // ", max |phi| " // &
+                real_str(monitor%max_phi) // ", pilot " // real_str(real(chosen - start, wp)) &
+                // " s, run " // real_str(real(finish - chosen, wp)) // " s"
+            call append_text(lines, trim(systems(c)) // ",holosym-accuracy,real128," // &
+                trim(real_str(span)) // ",(" // int_str(plan%order_m) // " " // &
+                int_str(plan%order_n) // " " // int_str(plan%gauss_points) // ") h=" // &
+                trim(real_str(plan%h)) // "," // csv_real(target) // "," // &
+                int_str(plan%steps) // "," // csv_real(run_error) // "," // &
+                csv_real(monitor%max_phi) // "," // csv_real(monitor%max_hidden) // "," // &
+                csv_real(monitor%energy_error) // "," // csv_real(real(finish - start, wp)) &
+                // "," // csv_real(real(chosen - start, wp)) // "," // int_str(run_status%code))
+            call write_lines(out_path, lines, status)
+        end subroutine record_accuracy
 
         !> heyoka's long runs of a case: tools/heyoka_bench.py (no shell) writes its rows
         !! to a scratch file; each must have the columns of long.csv and be heyoka's row of

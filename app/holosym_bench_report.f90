@@ -155,7 +155,8 @@ contains
             if (text /= "pendulum" .and. text /= "linkage" .and. text /= "planar") &
                 problem = "is not pendulum, linkage or planar"
         case ("method")
-            if (text /= "holosym" .and. text /= "heyoka") problem = "is not holosym or heyoka"
+            if (text /= "holosym" .and. text /= "holosym-accuracy" .and. text /= "heyoka") &
+                problem = "is not holosym, holosym-accuracy or heyoka"
         case ("config")
             if (len(text) == 0) problem = "is empty"
         case ("links", "n", "m", "steps", "max_rss_kb", "status", "M", "N", "G")
@@ -625,7 +626,8 @@ contains
             return
         end if
         call unit%line("real128; the cheapest run of each method with error at T " // &
-            "at most the target (reference: holosym (8,7,9) at h = 1/32, " // &
+            "at most the target (holosym: (6,5,7) and (8,7,9), h halved from 1, Newton " // &
+            "to the default 8 epsilon; reference: holosym (8,7,9) at h = 1/32, " // &
             "long_reference.csv). max |phi| and the energy error are whole-run " // &
             "(holosym: after every step and at every node; heyoka: on 10001 output times). " // &
             "'x' = heyoka's CPU time / holosym's (target: at least 2, with holosym's " // &
@@ -654,7 +656,58 @@ contains
                 call unit%line(line)
             end do
         end do
+        call unit%line("")
+        call unit%line("holosym as `holosym simulate --accuracy TARGET --T T` runs it " // &
+            "(`init_for_accuracy`: a pilot chooses (M, N, G), h and the Newton tolerance " // &
+            "from the request, then the run), against the same heyoka run; 'x' = heyoka's " // &
+            "CPU time / holosym's pilot and run together.")
+        call unit%line("")
+        call unit%line("| system | T | target | plan | pilot + run s | error | max phi | " // &
+            "energy error | pilot s | heyoka s | x |")
+        call unit%line("|---|---|---|---|---|---|---|---|---|---|---|")
+        do c = 1, size(cases)
+            do t = 1, size(targets)
+                mine = accuracy_long(trim(cases(c)), targets(t))
+                if (mine == 0) cycle
+                theirs = cheapest_long("heyoka", trim(cases(c)), targets(t))
+                line = "| " // field_of(cases(c), 1) // " | " // field_of(cases(c), 2) // &
+                    " | " // sci(targets(t)) // " |"
+                if (nint(number(table, "status", mine)) /= 0) then
+                    line = line // " failed (status " // &
+                        int_text(nint(number(table, "status", mine))) // ") | — | — | — | — | — |"
+                else
+                    line = line // run_cells(mine) // " " // &
+                        sci(number(table, "compile_seconds", mine)) // " |"
+                end if
+                if (theirs > 0) then
+                    line = line // " " // sci(number(table, "seconds", theirs)) // " |"
+                else
+                    line = line // " — |"
+                end if
+                if (theirs > 0 .and. nint(number(table, "status", mine)) == 0) then
+                    line = line // " " // fixed(number(table, "seconds", theirs) / &
+                        number(table, "seconds", mine)) // " |"
+                else
+                    line = line // " — |"
+                end if
+                call unit%line(line)
+            end do
+        end do
     contains
+        !> The row through --accuracy of a case and target (0: none).
+        integer function accuracy_long(case_name, target) result(found)
+            character(len=*), intent(in) :: case_name
+            real(real64), intent(in) :: target
+            integer :: row
+            found = 0
+            do row = 1, size(table%cells, 2)
+                if (field(table, "method", row) /= "holosym-accuracy" .or. &
+                    field(table, "system", row) // " " // field(table, "span", row) /= &
+                    case_name) cycle
+                if (abs(number(table, "tolerance", row) - target) <= 1.0e-6_real64 * target) &
+                    found = row
+            end do
+        end function accuracy_long
         integer function cheapest_long(method, case_name, target) result(best)
             character(len=*), intent(in) :: method, case_name
             real(real64), intent(in) :: target
