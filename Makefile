@@ -26,7 +26,8 @@
 # Benchmark (heyoka in a venv, holosym's RATTLE compositions, chain scaling):
 #   make bench                sweeps in both builds, scaling, plots into docs/figures and
 #                             docs/performance.md (about an hour of CPU on one core)
-#   make bench-long           the long runs against heyoka (about an hour), then the report
+#   make bench-long           the long runs against heyoka (about 80 minutes); that section
+#                             of docs/performance.md
 #   make bench-quick          the whole bench pipeline in a few minutes (build/bench-quick)
 #   make bench-models         model files against the built-in models, chains from model
 #                             files (minutes); that section of docs/performance.md
@@ -177,8 +178,7 @@ bench-long: deps include-digest
 	mkdir -p $(BENCH_DIR)
 	$(FPM) run $(FPM_FLAGS) -- bench --long --out $(BENCH_DIR) --heyoka $(BENCH_PYTHON) \
 		$(LONG_ARGS)
-	awk '/^## /{keep = ($$0 == "## Long runs")} keep' $(BENCH_DIR)/performance.md \
-		> $(BENCH_DIR)/long.md
+	$(FPM) run $(FPM_FLAGS) -- bench --long-section $(BENCH_DIR) > $(BENCH_DIR)/long.md
 	$(PYTHON) tools/replace_section.py docs/performance.md $(BENCH_DIR)/long.md
 
 # Summary, plots and docs/performance.md from the CSV files in $(BENCH_DIR).

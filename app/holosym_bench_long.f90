@@ -225,7 +225,7 @@ contains
             call one_run(sys, q0, p0, span, configs(:, k), step, q_ref, p_ref, .true., &
                          timed, timed_error, monitor, run_status)
             call append_text(lines, trim(systems(c)) // ",holosym,real128," // &
-                trim(real_str(span)) // ",(" // config_text(configs(:, k)) // ") h=" // &
+                trim(real_field(span)) // ",(" // config_text(configs(:, k)) // ") h=" // &
                 trim(real_str(step)) // ",0," // int_str(nint(span / step)) // "," // &
                 csv_real(error) // "," // csv_real(monitor%max_phi) // "," // &
                 csv_real(monitor%max_hidden) // "," // csv_real(monitor%energy_error) // "," &
@@ -270,7 +270,7 @@ contains
                 real_str(monitor%max_phi) // ", pilot " // real_str(real(chosen - start, wp)) &
                 // " s, run " // real_str(real(finish - chosen, wp)) // " s"
             call append_text(lines, trim(systems(c)) // ",holosym-accuracy,real128," // &
-                trim(real_str(span)) // ",(" // int_str(plan%order_m) // " " // &
+                trim(real_field(span)) // ",(" // int_str(plan%order_m) // " " // &
                 int_str(plan%order_n) // " " // int_str(plan%gauss_points) // ") h=" // &
                 trim(real_str(plan%h)) // "," // csv_real(target) // "," // &
                 int_str(plan%steps) // "," // csv_real(run_error) // "," // &

@@ -638,7 +638,7 @@ contains
         call unit%line("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         allocate (cases(0))
         do r = 1, size(table%cells, 2)
-            line = field(table, "system", r) // " " // field(table, "span", r)
+            line = case_of(r)
             if (.not. any(cases == line)) cases = [character(len=field_length) :: cases, line]
         end do
         do c = 1, size(cases)
@@ -694,6 +694,13 @@ contains
             end do
         end do
     contains
+        !> The case of a row: its system and T (as a number: the files of holosym and of
+        !! heyoka spell T differently).
+        function case_of(row) result(text)
+            integer, intent(in) :: row
+            character(len=:), allocatable :: text
+            text = field(table, "system", row) // " " // sci(number(table, "span", row))
+        end function case_of
         !> The row through --accuracy of a case and target (0: none).
         integer function accuracy_long(case_name, target) result(found)
             character(len=*), intent(in) :: case_name
@@ -702,8 +709,7 @@ contains
             found = 0
             do row = 1, size(table%cells, 2)
                 if (field(table, "method", row) /= "holosym-accuracy" .or. &
-                    field(table, "system", row) // " " // field(table, "span", row) /= &
-                    case_name) cycle
+                    case_of(row) /= case_name) cycle
                 if (abs(number(table, "tolerance", row) - target) <= 1.0e-6_real64 * target) &
                     found = row
             end do
@@ -714,8 +720,7 @@ contains
             integer :: row
             best = 0
             do row = 1, size(table%cells, 2)
-                if (field(table, "method", row) /= method .or. field(table, "system", row) // &
-                    " " // field(table, "span", row) /= case_name) cycle
+                if (field(table, "method", row) /= method .or. case_of(row) /= case_name) cycle
                 if (nint(number(table, "status", row)) /= 0 .or. &
                     number(table, "error", row) > target) cycle
                 if (best == 0) then

@@ -88,6 +88,7 @@ module holosym_cli_bench
         logical :: models = .false.                  !! model files against built-ins instead
         logical :: accuracy = .false.                !! what --accuracy delivers, instead
         character(len=:), allocatable :: models_section !! only print this DIR's model section
+        character(len=:), allocatable :: long_section !! only print this DIR's long-run section
         integer :: scaling_point = 0                 !! one chain of K links (internal)
         logical :: general = .false.                 !! with --scaling-point: general path
         logical :: help = .false.                    !! --help given
@@ -134,13 +135,14 @@ contains
             "  --scaling-point K  one point of --scaling (K = 1..100000): its CSV line", &
             "                   (--general: the general path)", &
             "  --long           instead: long runs (planar T = 1e4, 1e5, spherical 1e4) to", &
-            "                   errors 1e-20 and 1e-24 (DIR/long.csv; about an hour;", &
+            "                   errors 1e-20 and 1e-24 (DIR/long.csv; about 80 minutes;", &
             "                   --quick: T = 20 and 10)", &
             "  --models         instead: model files against the built-in models (pendulum,", &
             "                   linkage, chain of 64; DIR/models.csv) and chains of K = 8 ..", &
             "                   256 from model files in DIR/models/ (DIR/model_scaling.csv;", &
             "                   64.csv files in the real64 build; make bench-models)", &
             "  --models-section DIR  print the model-file section of DIR/performance.md", &
+            "  --long-section DIR  print the long-run section of DIR/performance.md", &
             "  --accuracy       instead: what --accuracy delivers on the pendulum, linkage,", &
             "                   planar, double and magnetic systems to T = 10, requests", &
             "                   1e-8 .. 1e-30 (real64 1e-6 .. 1e-12): plan, estimate, error", &
@@ -173,6 +175,7 @@ contains
         options%systems = "pendulum,linkage,planar"
         options%heyoka = ""
         options%models_section = ""
+        options%long_section = ""
         status%code = HOLOSYM_SUCCESS
         status%message = ""
         i = 1
@@ -200,7 +203,8 @@ contains
             case ("--general")
                 options%general = .true.
             case ("--out", "--systems", "--Mmax", "--order", "--budget", "--reference", &
-                  "--summarize", "--heyoka", "--scaling-point", "--models-section")
+                  "--summarize", "--heyoka", "--scaling-point", "--models-section", &
+                  "--long-section")
                 call option_value(args, i, name, inline, has_inline, value, status)
                 if (.not. status%ok()) return
                 select case (name)
@@ -212,6 +216,8 @@ contains
                     options%summarize = value
                 case ("--models-section")
                     options%models_section = value
+                case ("--long-section")
+                    options%long_section = value
                 case ("--heyoka")
                     options%heyoka = value
                 case ("--scaling-point")
@@ -1228,6 +1234,11 @@ contains
         call parse_bench_options(args, options, status)
         if (.not. parsed_command_proceeds("bench", status, options%help, bench_help(), &
                                           out, err_unit, exit_code)) return
+        if (len(options%long_section) > 0) then
+            call long_section(options%long_section, out)
+            exit_code = EXIT_OK
+            return
+        end if
         if (len(options%models_section) > 0) then
             call models_section(options%models_section, out)
             exit_code = EXIT_OK
@@ -1446,7 +1457,7 @@ contains
         call unit%line("- `make bench`: `holosym bench --heyoka PYTHON` in the real128 " // &
             "build (writes the reference), the same in the real64 build against that " // &
             "reference, `holosym bench --scaling` in both builds, then plots and this page. " // &
-            "`make bench-long`: `holosym bench --long --heyoka PYTHON` (about an hour of CPU).")
+            "`make bench-long`: `holosym bench --long --heyoka PYTHON` (about 80 minutes here).")
         call unit%line("- Competitor: heyoka (the `heyoka` package on PyPI, Taylor " // &
             "method with LLVM compilation), installed by `tools/bench_venv.sh` into the " // &
             "benchmark's virtual environment, run by `tools/heyoka_bench.py` on the index-1 " // &

@@ -347,6 +347,8 @@ contains
             "1.25E-1,80,1.0E-9,1.0E-10,1.0E-33,1.0E-2,1.25E-4,400,500,600,70,80,0,0,0,0"
         character(len=:), allocatable :: dir, path
         type(command_result_t) :: result
+        type(text_line_t), allocatable :: page(:)
+        integer :: ios
 
         dir = fresh_dir("bench_malformed")
         path = dir // "/bench.csv"
@@ -454,13 +456,27 @@ contains
         call check(error, result%exit_code == exit_failure .and. any_line(result, &
             "long.csv: line 2: field steps is not >= 0: '-40'"), &
             "negative steps in long.csv: exit " // int_str(result%exit_code))
+        ! T spelled two ways (as holosym and heyoka write it) is one case.
         call write_lines(dir // "/long.csv", [character(len=160) :: &
             "system,method,precision,span,config,tolerance,steps,error,max_phi,max_hidden," &
             // "energy_error,seconds,compile_seconds,status", "planar,holosym,real128,20," // &
-            "(6 5 7) h=0.5,0,40,1.0E-21,1.0E-33,1.0E-33,1.0E-30,0.1,0,0"])
+            "(6 5 7) h=0.5,0,40,1.0E-21,1.0E-33,1.0E-33,1.0E-30,0.1,0,0", &
+            "planar,holosym-accuracy,real128,20,(8 7 9) h=0.4,1.0E-20,50,4.0E-21,1.0E-29," // &
+            "1.0E-29,1.0E-29,0.08,0.02,0", &
+            "planar,heyoka,real128,2.00000E+0001,order 30,1.0E-28,300,5.0E-22,1.0E-25," // &
+            "1.0E-25,1.0E-26,0.3,1.5,0"])
         call summarize(error, dir, result)
         call check(error, result%exit_code == 0, "well-formed scaling.csv and long.csv: " // &
             "exit " // int_str(result%exit_code))
+        call read_lines(dir // "/performance.md", page, ios)
+        call check(error, ios == 0, "performance.md written")
+        if (allocated(error)) return
+        call check(error, has_line(page, "| planar | 2.00E+01 | 1.00E-20 | (6 5 7) h=0.5 | " // &
+            "1.00E-01 | 1.00E-21 | 1.00E-33 | 1.00E-30 | tol 1.00E-28, order 30 | 3.00E-01 | " // &
+            "5.00E-22 | 1.00E-25 | 1.00E-26 | 3.00 |"), "the long runs' row against heyoka")
+        call check(error, has_line(page, "| planar | 2.00E+01 | 1.00E-20 | (8 7 9) h=0.4 | " // &
+            "8.00E-02 | 4.00E-21 | 1.00E-29 | 1.00E-29 | 2.00E-02 | 3.00E-01 | 3.75 |"), &
+            "the row through --accuracy against heyoka")
 
     contains
 
