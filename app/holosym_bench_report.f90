@@ -645,15 +645,8 @@ contains
             do t = 1, size(targets)
                 mine = cheapest_long("holosym", trim(cases(c)), targets(t))
                 theirs = cheapest_long("heyoka", trim(cases(c)), targets(t))
-                line = "| " // field_of(cases(c), 1) // " | " // field_of(cases(c), 2) // &
-                    " | " // sci(targets(t)) // " |" // run_cells(mine) // run_cells(theirs)
-                if (mine > 0 .and. theirs > 0) then
-                    line = line // " " // fixed(number(table, "seconds", theirs) / &
-                        number(table, "seconds", mine)) // " |"
-                else
-                    line = line // " — |"
-                end if
-                call unit%line(line)
+                call unit%line(case_cells(cases(c), targets(t)) // run_cells(mine) // &
+                               run_cells(theirs) // ratio_cell(theirs, mine, mine > 0))
             end do
         end do
         call unit%line("")
@@ -670,8 +663,7 @@ contains
                 mine = accuracy_long(trim(cases(c)), targets(t))
                 if (mine == 0) cycle
                 theirs = cheapest_long("heyoka", trim(cases(c)), targets(t))
-                line = "| " // field_of(cases(c), 1) // " | " // field_of(cases(c), 2) // &
-                    " | " // sci(targets(t)) // " |"
+                line = case_cells(cases(c), targets(t))
                 if (nint(number(table, "status", mine)) /= 0) then
                     line = line // " failed (status " // &
                         int_text(nint(number(table, "status", mine))) // ") | — | — | — | — | — |"
@@ -684,16 +676,29 @@ contains
                 else
                     line = line // " — |"
                 end if
-                if (theirs > 0 .and. nint(number(table, "status", mine)) == 0) then
-                    line = line // " " // fixed(number(table, "seconds", theirs) / &
-                        number(table, "seconds", mine)) // " |"
-                else
-                    line = line // " — |"
-                end if
-                call unit%line(line)
+                call unit%line(line // ratio_cell(theirs, mine, &
+                                                  nint(number(table, "status", mine)) == 0))
             end do
         end do
     contains
+        !> The first cells of a case's row: system, T and target.
+        function case_cells(case_name, target) result(text)
+            character(len=*), intent(in) :: case_name
+            real(real64), intent(in) :: target
+            character(len=:), allocatable :: text
+            text = "| " // field_of(case_name, 1) // " | " // field_of(case_name, 2) // " | " &
+                // sci(target) // " |"
+        end function case_cells
+        !> The cell of heyoka's seconds over holosym's (row `mine`, when `valid`), or "—".
+        function ratio_cell(theirs, mine, valid) result(text)
+            integer, intent(in) :: theirs, mine
+            logical, intent(in) :: valid
+            character(len=:), allocatable :: text
+            text = " — |"
+            if (theirs == 0 .or. .not. valid) return
+            text = " " // fixed(number(table, "seconds", theirs) / &
+                number(table, "seconds", mine)) // " |"
+        end function ratio_cell
         !> The case of a row: its system and T (as a number: the files of holosym and of
         !! heyoka spell T differently).
         function case_of(row) result(text)
