@@ -1235,8 +1235,11 @@ contains
         if (.not. parsed_command_proceeds("bench", status, options%help, bench_help(), &
                                           out, err_unit, exit_code)) return
         if (len(options%long_section) > 0) then
-            call long_section(options%long_section, out)
-            exit_code = EXIT_OK
+            ! A malformed long.csv fails the command, naming the line (the section alone
+            ! would print it as missing).
+            call check_report_files(options%long_section, status)
+            if (status%ok()) call long_section(options%long_section, out)
+            call finish(status)
             return
         end if
         if (len(options%models_section) > 0) then

@@ -456,6 +456,10 @@ contains
         call check(error, result%exit_code == exit_failure .and. any_line(result, &
             "long.csv: line 2: field steps is not >= 0: '-40'"), &
             "negative steps in long.csv: exit " // int_str(result%exit_code))
+        call run_holosym(words("bench", "--long-section", dir), result)
+        call check(error, result%exit_code == exit_failure .and. any_line(result, &
+            "long.csv: line 2: field steps is not >= 0: '-40'"), &
+            "--long-section refuses the malformed long.csv: exit " // int_str(result%exit_code))
         ! T spelled two ways (as holosym and heyoka write it) is one case.
         call write_lines(dir // "/long.csv", [character(len=160) :: &
             "system,method,precision,span,config,tolerance,steps,error,max_phi,max_hidden," &
