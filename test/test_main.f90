@@ -42,6 +42,7 @@ program holosym_tests
     use test_lyapunov, only: lyapunov_tests
     use test_iteration, only: iteration_tests
     use test_double_double, only: double_double_tests
+    use test_projection, only: projection_tests
     implicit none
     character(len=256) :: filter
     integer :: passed, failed, skipped
@@ -93,6 +94,7 @@ program holosym_tests
     call run_suite("lyapunov", lyapunov_tests(), filter, passed, failed, skipped)
     call run_suite("iteration", iteration_tests(), filter, passed, failed, skipped)
     call run_suite("double_double", double_double_tests(), filter, passed, failed, skipped)
+    call run_suite("projection", projection_tests(), filter, passed, failed, skipped)
     if (passed + failed + skipped == 0) then
         write (error_unit, '(a)') "holosym_tests: no test matches '" // trim(filter) // &
             "' (a test is selected when its suite/name contains the filter, e.g. scheme/)"

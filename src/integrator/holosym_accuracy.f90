@@ -30,6 +30,7 @@ module holosym_accuracy
         is_finite, HOLOSYM_SUCCESS, HOLOSYM_INVALID_ARGUMENT, HOLOSYM_SIZE_MISMATCH
     use holosym_problem, only: constrained_hamiltonian
     use holosym_integrator, only: constrained_integrator
+    use holosym_newton, only: default_newton_tolerance
     implicit none
     private
 
@@ -126,7 +127,7 @@ contains
         ! set-up for every run (each starts afresh from (q, p)); the system is checked
         ! (when the integrator checks systems) by the first run only.
         trial = integ
-        trial%newton%tolerance = 8 * epsilon(1.0_wp)
+        trial%newton%tolerance = default_newton_tolerance
         call trial%init(sys, plan%order_m, plan%order_n, plan%gauss_points, local)
         ! The plan's integrator is this set-up, untouched by the pilot's runs (a second
         ! `init` would repeat the scheme's construction, as costly as some steps).
@@ -153,7 +154,7 @@ contains
         plan%steps = max(1, ceiling(T / h))
         plan%h = T / plan%steps
         plan%estimate = error_full * (plan%h / h_full)**(2 * plan%order_m)
-        plan%newton_tolerance = max(8 * epsilon(1.0_wp), min(1.0e-3_wp, &
+        plan%newton_tolerance = max(default_newton_tolerance, min(1.0e-3_wp, &
             tolerance / (newton_share * plan%steps * max(scale, 1.0_wp))))
         fresh%newton%tolerance = plan%newton_tolerance
         integ = fresh
@@ -323,7 +324,7 @@ contains
         ! from above.
         error = max(d, roundoff_floor(scale), newton_floor(integ%newton%tolerance, &
             2 * steps, scale)) / (2.0_wp**(2 * plan%order_m) - 1) * (T / covered)
-        integ%newton%tolerance = 8 * epsilon(1.0_wp)
+        integ%newton%tolerance = default_newton_tolerance
     end subroutine full_span
 
     !> The Newton tolerance of the span runs for a request: their Newton errors, at most
@@ -332,7 +333,7 @@ contains
     pure real(wp) function span_tolerance(tolerance, steps, scale)
         real(wp), intent(in) :: tolerance, scale
         integer, intent(in) :: steps
-        span_tolerance = max(8 * epsilon(1.0_wp), min(1.0e-3_wp, &
+        span_tolerance = max(default_newton_tolerance, min(1.0e-3_wp, &
             tolerance / (span_share * steps * max(scale, 1.0_wp))))
     end function span_tolerance
 
@@ -343,7 +344,7 @@ contains
         real(wp), intent(in) :: newton_tolerance, scale
         integer, intent(in) :: steps
         newton_floor = 0
-        if (newton_tolerance > 8 * epsilon(1.0_wp)) &
+        if (newton_tolerance > default_newton_tolerance) &
             newton_floor = steps * newton_tolerance * max(scale, 1.0_wp)
     end function newton_floor
 

@@ -104,6 +104,9 @@ module holosym_integrator
         integer :: newton_iterations = 0
         !> max |phi| over the step's displacement nodes q_0..q_M.
         real(wp) :: constraint_residual = 0
+        !> max |phi(q_b)| at the step end (`project_end_state` keeps it at round-off when
+        !! the Newton tolerance is loose; the nodes inside the step keep the Newton error).
+        real(wp) :: end_constraint_residual = 0
         !> max |Phi(q_b) H_p(q_b, p_b)| at the step end (hidden constraint).
         real(wp) :: velocity_residual = 0
         !> Smallest relative pivot of the (row-equilibrated) Newton Jacobian.
@@ -195,6 +198,7 @@ module holosym_integrator
         real(wp) :: pivot_ratio = 0
         real(wp) :: velocity = 0          ! max |Phi H_p| at the end state
         real(wp) :: position = 0          ! max |phi| over the displacement nodes
+        real(wp) :: end_position = 0      ! max |phi| at the end state
         real(wp) :: energy = 0            ! H at the end state (when `energy_known`)
         logical :: energy_known = .false.
         logical :: energy_finite = .true. ! H finite at both ends (see `energy_change`)
@@ -263,6 +267,14 @@ module holosym_integrator
         !! at round-off. `.false.` lets such a step fail at once (as the pilot of
         !! `init_for_accuracy` does while it searches for a step the motion allows).
         logical :: general_fallback = .true.
+        !> Where `newton%tolerance` is looser than the default (`default_newton_tolerance`;
+        !! `init_for_accuracy` derives such tolerances from a request), project the end
+        !! state of every step onto the constraints: q along the constraint normals, then
+        !! p (banded, through Phi's pattern, on the reduced step), so that phi and Phi H_p
+        !! hold to round-off at every step's end at any tolerance. The correction is of
+        !! the size of the Newton error; the displacement nodes inside the step keep
+        !! theirs. `.false.` keeps the iteration's end state.
+        logical :: project_end_state = .true.
         !> Work counters since init (read them; `reset_statistics` zeroes them).
         type(integrator_stats_t) :: stats
         !> Largest scaled residual of an accepted start state (see manifold_residuals).

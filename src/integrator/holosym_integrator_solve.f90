@@ -10,7 +10,8 @@ submodule (holosym_integrator) holosym_step_solution
         HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED, is_system_fault
     use holosym_problem, only: clear_refusal, refusal_pending, check_refusal
     use holosym_newton, only: newton_report_t, newton_solve, all_finite, stagnation_floor, &
-        LINEAR_SOLVER_NATIVE
+        LINEAR_SOLVER_NATIVE, default_newton_tolerance
+    use holosym_projection, only: project_to_manifold, project_sparse
     use holosym_scheme, only: scheme_counters_t
     use holosym_manifold, only: manifold_residuals
     use holosym_reduced_step, only: reduced_report_t
@@ -87,7 +88,46 @@ contains
             end if
         end if
         if (status%ok()) call node_residual(self, sys, q, h, status)
+        if (status%ok() .and. self%project_end_state .and. &
+            self%newton%tolerance > default_newton_tolerance) &
+            call project_end(self, sys, q, p, h, status)
     end subroutine attempt_step
+
+    !> `project_end_state`: the solved step's end state (q + dq_work, p + dp_work) onto
+    !! the constraints, banded on the reduced path (its system has a constant diagonal
+    !! mass), else dense (`project_to_manifold`). The increments take the correction as
+    !! the difference of the projected and the unprojected end, exact for such close
+    !! numbers; `pending` has max |phi| and max |Phi H_p| at the projected end.
+    subroutine project_end(self, sys, q, p, h, status)
+        class(constrained_integrator), intent(inout) :: self
+        class(constrained_hamiltonian), intent(in) :: sys
+        real(wp), intent(in) :: q(:), p(:), h
+        type(holosym_status_t), intent(inout) :: status
+        real(wp) :: position, velocity, scaled_position, scaled_velocity
+        if (sys%m == 0) return
+        self%q_end_work = q + self%dq_work
+        self%p_end_work = p + self%dp_work
+        if (self%path%main == STEP_REDUCED) then
+            associate (lay => self%reduced%scheme%layout)
+                call project_sparse(sys, lay%phi_rows, lay%phi_cols, lay%constraint_order, &
+                    self%reduced%scheme%inv_mass, self%q_end_work, self%p_end_work, &
+                    position, velocity, status)
+            end associate
+        else
+            call project_to_manifold(sys, self%q_end_work, self%p_end_work, status)
+            if (status%ok()) call manifold_residuals(sys, self%q_end_work, self%p_end_work, &
+                position, velocity, scaled_position, scaled_velocity)
+        end if
+        if (.not. status%ok()) then
+            status%message = trim(step_label(self, h)) // ": projection of the end state " // &
+                "onto the constraints (project_end_state): " // status%message
+            return
+        end if
+        self%dq_work = self%dq_work + (self%q_end_work - (q + self%dq_work))
+        self%dp_work = self%dp_work + (self%p_end_work - (p + self%dp_work))
+        self%pending%end_position = position
+        self%pending%velocity = velocity
+    end subroutine project_end
 
     !> max |phi| over the displacement nodes of the solved step, into `pending`; or
     !! HOLOSYM_NONFINITE_VALUE when `constraint` returns NaN or Inf at one of them (found by
@@ -100,6 +140,7 @@ contains
         real(wp) :: phi(sys%m)
         integer :: i
         self%pending%position = 0
+        self%pending%end_position = 0
         if (sys%m == 0) return
         do i = 0, self%scheme%order_m
             ! The node in p_end_work, free until `energy_change`.
@@ -113,6 +154,7 @@ contains
             end if
             self%pending%position = max(self%pending%position, maxval(abs(phi)))
         end do
+        self%pending%end_position = maxval(abs(phi))
     end subroutine node_residual
 
     !> Accept the step solved by the last attempt (or restored by `restore_candidate`):
@@ -127,6 +169,7 @@ contains
         associate (info => self%last_info, pending => self%pending)
             info%newton_iterations = pending%iterations
             info%constraint_residual = pending%position
+            info%end_constraint_residual = pending%end_position
             info%velocity_residual = pending%velocity
             info%pivot_ratio = pending%pivot_ratio
             info%lu_factorizations = pending%factorizations

@@ -12,7 +12,7 @@ module holosym_manifold
     private
 
     public :: manifold_residuals, full_rank_constraints, sparse_manifold_residuals, &
-        sparse_full_rank_constraints
+        sparse_full_rank_constraints, gram_band, band_cholesky, band_cholesky_solve
 
     !> Default tolerance on the scaled residuals: 2**10 epsilon, room for the round-off of
     !! evaluating phi and Phi H_p with a few hundred operations.
@@ -182,9 +182,8 @@ contains
         logical, intent(out), optional :: finite
         logical :: full_rank
         real(wp), allocatable :: values(:), band(:, :)
-        integer, allocatable :: start(:), entry(:), fill(:)
-        integer :: e, f, c, a, b, width, i, j, k
-        real(wp) :: largest, relative, cutoff
+        real(wp) :: relative
+        integer :: failed
         message = ""
         full_rank = .true.
         if (present(finite)) finite = .true.
@@ -195,68 +194,132 @@ contains
             if (present(finite)) finite = .false.
             return
         end if
+        call gram_band(sys%n, sys%m, rows, columns, order, values, band)
+        relative = sys%m * epsilon(1.0_wp)
+        if (present(threshold)) relative = threshold
+        call band_cholesky(band, relative, failed)
+        if (failed > 0) then
+            full_rank = .false.
+            message = "the constraint Jacobian Phi is rank deficient at q: a constraint " &
+                // "is (nearly) a combination of the others (pivot " // int_str(failed) // &
+                " of " // int_str(sys%m) // " of Phi Phi^T below " // &
+                real_str(relative) // " relative)"
+        end if
+    end function sparse_full_rank_constraints
+
+    !> The Gram matrix G = Phi W Phi^T (m x m) of a sparse Phi (its entries `values` on the
+    !! pattern `rows`, `columns`), W = diag(`weights`) or the identity, in lower band
+    !! storage for the constraints taken in `order`: band(1 + i - j, j) = G(i, j) for the
+    !! ordered indices i >= j, the band as wide as the pattern makes it (two constraints
+    !! are coupled when they share a coordinate). Work: the pairs of entries per coordinate.
+    pure subroutine gram_band(n, m, rows, columns, order, values, band, weights)
+        integer, intent(in) :: n, m        !! coordinates, constraints
+        integer, intent(in) :: rows(:)     !! pattern of Phi: constraint of each entry
+        integer, intent(in) :: columns(:)  !! pattern of Phi: coordinate of each entry
+        integer, intent(in) :: order(:)    !! position of each constraint in the band order
+        real(wp), intent(in) :: values(:)  !! Phi on its pattern
+        real(wp), allocatable, intent(out) :: band(:, :) !! (width + 1, m)
+        real(wp), intent(in), optional :: weights(:) !! W's diagonal (n)
+        integer, allocatable :: start(:), entry(:), fill(:)
+        integer :: e, f, c, a, b, width, i, j
+        real(wp) :: w
         ! Entries of each coordinate (column), to pair the constraints that share it.
-        allocate (start(sys%n + 1), fill(sys%n), entry(size(rows)))
+        allocate (start(n + 1), fill(n), entry(size(rows)))
         fill = 0
         do e = 1, size(rows)
             fill(columns(e)) = fill(columns(e)) + 1
         end do
         start(1) = 1
-        do c = 1, sys%n
+        do c = 1, n
             start(c + 1) = start(c) + fill(c)
         end do
-        fill = start(1:sys%n)
+        fill = start(1:n)
         do e = 1, size(rows)
             entry(fill(columns(e))) = e
             fill(columns(e)) = fill(columns(e)) + 1
         end do
         width = 0
-        do c = 1, sys%n
+        do c = 1, n
             do a = start(c), start(c + 1) - 1
                 do b = start(c), start(c + 1) - 1
                     width = max(width, abs(order(rows(entry(a))) - order(rows(entry(b)))))
                 end do
             end do
         end do
-        ! Lower band: band(1 + i - j, j) = G(i, j) for the ordered indices i >= j.
-        allocate (band(width + 1, sys%m))
+        allocate (band(width + 1, m))
         band = 0
-        do c = 1, sys%n
+        do c = 1, n
+            w = 1
+            if (present(weights)) w = weights(c)
             do a = start(c), start(c + 1) - 1
                 do b = start(c), start(c + 1) - 1
                     e = entry(a)
                     f = entry(b)
                     i = order(rows(e))
                     j = order(rows(f))
-                    if (i >= j) band(1 + i - j, j) = band(1 + i - j, j) + values(e) * values(f)
+                    if (i >= j) band(1 + i - j, j) = band(1 + i - j, j) + values(e) * w * values(f)
                 end do
             end do
         end do
-        largest = maxval(band(1, :))
-        relative = sys%m * epsilon(1.0_wp)
-        if (present(threshold)) relative = threshold
-        cutoff = relative * largest
-        do j = 1, sys%m
+    end subroutine gram_band
+
+    !> Cholesky factorisation L L^T of a symmetric band matrix in the lower band storage of
+    !! `gram_band`, in place (L in the band). `failed` is 0, or the first pivot (in the
+    !! band order) at or below `relative` times the largest diagonal entry: the matrix is
+    !! then (nearly) singular, the band only partly factored.
+    pure subroutine band_cholesky(band, relative, failed)
+        real(wp), intent(inout) :: band(:, :) !! (width + 1, m): the matrix in, L out
+        real(wp), intent(in) :: relative      !! relative pivot threshold
+        integer, intent(out) :: failed        !! 0 or the failing pivot
+        real(wp) :: cutoff
+        integer :: width, m, i, j, k
+        width = size(band, 1) - 1
+        m = size(band, 2)
+        failed = 0
+        cutoff = relative * maxval(band(1, :))
+        do j = 1, m
             if (.not. band(1, j) > cutoff) then
-                full_rank = .false.
-                message = "the constraint Jacobian Phi is rank deficient at q: a constraint " &
-                    // "is (nearly) a combination of the others (pivot " // int_str(j) // &
-                    " of " // int_str(sys%m) // " of Phi Phi^T below " // &
-                    real_str(relative) // " relative)"
+                failed = j
                 return
             end if
             band(1, j) = sqrt(band(1, j))
-            do i = 2, min(width + 1, sys%m - j + 1)
+            do i = 2, min(width + 1, m - j + 1)
                 band(i, j) = band(i, j) / band(1, j)
             end do
-            do k = 2, min(width + 1, sys%m - j + 1)
-                do i = k, min(width + 1, sys%m - j + 1)
+            do k = 2, min(width + 1, m - j + 1)
+                do i = k, min(width + 1, m - j + 1)
                     band(i - k + 1, j + k - 1) = band(i - k + 1, j + k - 1) - &
                         band(i, j) * band(k, j)
                 end do
             end do
         end do
-    end function sparse_full_rank_constraints
+    end subroutine band_cholesky
+
+    !> Solve G y = x with the factor L of `band_cholesky`, in place; x and y indexed by
+    !! constraint (G's rows and columns in `order`).
+    pure subroutine band_cholesky_solve(band, order, x)
+        real(wp), intent(in) :: band(:, :)   !! L from `band_cholesky`
+        integer, intent(in) :: order(:)      !! position of each constraint in the band order
+        real(wp), intent(inout) :: x(:)      !! right-hand side in, solution out
+        real(wp) :: y(size(x))
+        integer :: width, m, i, j
+        width = size(band, 1) - 1
+        m = size(band, 2)
+        y(order) = x
+        do j = 1, m
+            y(j) = y(j) / band(1, j)
+            do i = j + 1, min(j + width, m)
+                y(i) = y(i) - band(1 + i - j, j) * y(j)
+            end do
+        end do
+        do j = m, 1, -1
+            do i = j + 1, min(j + width, m)
+                y(j) = y(j) - band(1 + i - j, j) * y(i)
+            end do
+            y(j) = y(j) / band(1, j)
+        end do
+        x = y(order)
+    end subroutine band_cholesky_solve
 
     !> True when Phi(q) has full row rank m: the LU of Phi Phi^T (m x m) finds no pivot
     !! below m epsilon relative, i.e. no singular value of Phi below ~sqrt(m epsilon) relative.

@@ -14,6 +14,10 @@
 !!
 !! Both stages stop at the round-off level of the scaled residuals and accept the result
 !! when it is at most `tolerance`. On failure the caller's q and p are unchanged.
+!!
+!! `project_sparse` does the same for a state already within a small distance of the
+!! manifold (a step's end iterated to a loose Newton tolerance) of a system with constant
+!! diagonal mass and a sparse Phi, in work linear in m for banded constraints.
 module holosym_projection
     use holosym_kinds, only: wp
     use holosym_status_codes, only: holosym_status_t, set_status, int_str, real_str, is_finite, &
@@ -22,11 +26,12 @@ module holosym_projection
         HOLOSYM_SINGULAR_MATRIX, HOLOSYM_NEWTON_NOT_CONVERGED, HOLOSYM_NEWTON_DIVERGED
     use holosym_linalg, only: lu_factor, lu_solve
     use holosym_problem, only: constrained_hamiltonian, clear_refusal, check_refusal
-    use holosym_manifold, only: manifold_residuals, manifold_tolerance_default
+    use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, gram_band, &
+        band_cholesky, band_cholesky_solve
     implicit none
     private
 
-    public :: project_to_manifold, projection_report_t
+    public :: project_to_manifold, projection_report_t, project_sparse
 
     !> Default iteration limit of each stage; Newton converges quadratically, so a state
     !! that needs more is not "nearby" (same limit as newton_settings_t).
@@ -37,6 +42,10 @@ module holosym_projection
     !> Consecutive growing Newton corrections after which a stage is declared diverged
     !! (as in newton_settings_t%max_growth).
     integer, parameter :: max_growth = 3
+    !> Corrections of `project_sparse`'s position stage: its state is within the Newton
+    !! error of a step (at most 1e-3), so Gauss-Newton's quadratic convergence reaches
+    !! round-off in two or three; more means the state was not close.
+    integer, parameter :: sparse_iterations = 6
 
     !> What the projection did.
     type :: projection_report_t
@@ -154,6 +163,144 @@ contains
         if (present(report)) report = local_report
         call set_status(status, HOLOSYM_SUCCESS, "")
     end subroutine project_to_manifold
+
+    !> Project (q, p), close to the manifold, onto it for a system whose H_p is linear in
+    !! p with the constant diagonal H_pp = W = diag(`inverse_mass`) (a declared diagonal
+    !! mass), through the pattern of Phi the system declares (`rows`, `columns` from
+    !! `constraint_sparsity`; `constraint_jacobian_values` fills it):
+    !! q <- q - W Phi^T G^-1 phi(q) with G = Phi W Phi^T (band Cholesky in `order`),
+    !! repeated until the scaled residual of phi is at round-off, then at the new q
+    !! p <- p - Phi^T G^-1 Phi H_p(q, p), exact in one step for such an H. `position` and
+    !! `velocity` are max |phi| and max |Phi H_p| at the result. Work: a few evaluations of phi, Phi and H_p, and
+    !! m times G's band squared. On failure q and p are unchanged. Codes:
+    !! HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS (a pivot of G below
+    !! m epsilon relative), HOLOSYM_NEWTON_NOT_CONVERGED (phi above `accept` after
+    !! `sparse_iterations` corrections: the state was not close).
+    subroutine project_sparse(sys, rows, columns, order, inverse_mass, q, p, position, &
+                              velocity, status)
+        class(constrained_hamiltonian), intent(in) :: sys !! the system
+        integer, intent(in) :: rows(:)     !! pattern of Phi: constraint of each entry
+        integer, intent(in) :: columns(:)  !! pattern of Phi: coordinate of each entry
+        integer, intent(in) :: order(:)    !! position of each constraint in G's band order
+        real(wp), intent(in) :: inverse_mass(:) !! W's diagonal (n)
+        real(wp), intent(inout) :: q(:)    !! coordinates (n): in, projected out
+        real(wp), intent(inout) :: p(:)    !! momenta (n): in, projected out
+        real(wp), intent(out) :: position  !! max |phi| at the projected state
+        real(wp), intent(out) :: velocity  !! max |Phi H_p| at the projected state
+        type(holosym_status_t), intent(out) :: status !! outcome
+        real(wp), allocatable :: band(:, :)
+        real(wp) :: qw(size(q)), pw(size(p)), phi(sys%m), values(size(rows)), hp(size(p))
+        real(wp) :: multipliers(sys%m)
+        integer :: iter
+        position = 0
+        velocity = 0
+        call set_status(status, HOLOSYM_SUCCESS, "")
+        if (sys%m == 0) return
+        qw = q
+        pw = p
+        do iter = 0, sparse_iterations
+            call sparse_values(sys, rows, columns, qw, phi, values, status)
+            if (.not. status%ok()) return
+            call sparse_gram(sys, rows, columns, order, inverse_mass, values, band, status)
+            if (.not. status%ok()) return
+            if (scaled_phi(qw, phi, rows, values) <= round_off_target) exit
+            if (iter == sparse_iterations) then
+                if (scaled_phi(qw, phi, rows, values) <= manifold_tolerance_default) exit
+                call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "position projection " &
+                    // "not converged after " // int_str(iter) // " corrections (scaled " // &
+                    "max|phi| = " // real_str(scaled_phi(qw, phi, rows, values)) // ")")
+                return
+            end if
+            multipliers = phi
+            call band_cholesky_solve(band, order, multipliers)
+            call subtract_transpose(rows, columns, values, multipliers, qw, inverse_mass)
+        end do
+        call sys%dh_dp(qw, pw, hp)
+        multipliers = hidden_constraint(sys%m, rows, columns, values, hp)
+        call band_cholesky_solve(band, order, multipliers)
+        call subtract_transpose(rows, columns, values, multipliers, pw)
+        call sys%dh_dp(qw, pw, hp)
+        if (.not. (all(is_finite(hp)) .and. all(is_finite(pw)))) then
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, "dh_dp returned NaN or Inf " // &
+                "in the momentum projection")
+            return
+        end if
+        position = maxval(abs(phi))
+        velocity = maxval(abs(hidden_constraint(sys%m, rows, columns, values, hp)))
+        q = qw
+        p = pw
+    end subroutine project_sparse
+
+    !> phi and Phi (on its pattern) at q, or HOLOSYM_NONFINITE_VALUE.
+    subroutine sparse_values(sys, rows, columns, q, phi, values, status)
+        class(constrained_hamiltonian), intent(in) :: sys
+        integer, intent(in) :: rows(:), columns(:)
+        real(wp), intent(in) :: q(:)
+        real(wp), intent(out) :: phi(:), values(:)
+        type(holosym_status_t), intent(inout) :: status
+        call sys%constraint(q, phi)
+        call sys%constraint_jacobian_values(q, rows, columns, values)
+        if (.not. (all(is_finite(phi)) .and. all(is_finite(values)))) &
+            call set_status(status, HOLOSYM_NONFINITE_VALUE, "constraint or " // &
+                "constraint_jacobian returned NaN or Inf in the position projection")
+    end subroutine sparse_values
+
+    !> G = Phi W Phi^T factored (`band_cholesky`), or HOLOSYM_RANK_DEFICIENT_CONSTRAINTS.
+    subroutine sparse_gram(sys, rows, columns, order, inverse_mass, values, band, status)
+        class(constrained_hamiltonian), intent(in) :: sys
+        integer, intent(in) :: rows(:), columns(:), order(:)
+        real(wp), intent(in) :: inverse_mass(:), values(:)
+        real(wp), allocatable, intent(out) :: band(:, :)
+        type(holosym_status_t), intent(inout) :: status
+        integer :: failed
+        call gram_band(sys%n, sys%m, rows, columns, order, values, band, inverse_mass)
+        call band_cholesky(band, sys%m * epsilon(1.0_wp), failed)
+        if (failed > 0) call set_status(status, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS, "the " // &
+            "constraint Jacobian Phi is rank deficient in the projection: pivot " // &
+            int_str(failed) // " of " // int_str(sys%m) // " of Phi M^-1 Phi^T below m " // &
+            "epsilon relative")
+    end subroutine sparse_gram
+
+    !> max_l |phi_l| / (1 + |q| max_c |Phi_lc|), the scaled residual of `manifold_residuals`.
+    pure real(wp) function scaled_phi(q, phi, rows, values) result(scaled)
+        real(wp), intent(in) :: q(:), phi(:), values(:)
+        integer, intent(in) :: rows(:)
+        real(wp) :: row_max(size(phi))
+        integer :: e
+        row_max = 0
+        do e = 1, size(rows)
+            row_max(rows(e)) = max(row_max(rows(e)), abs(values(e)))
+        end do
+        scaled = maxval(abs(phi) / (1 + maxval(abs(q)) * row_max))
+    end function scaled_phi
+
+    !> Phi v for a sparse Phi.
+    pure function hidden_constraint(m, rows, columns, values, v) result(hidden)
+        integer, intent(in) :: m, rows(:), columns(:)
+        real(wp), intent(in) :: values(:), v(:)
+        real(wp) :: hidden(m)
+        integer :: e
+        hidden = 0
+        do e = 1, size(rows)
+            hidden(rows(e)) = hidden(rows(e)) + values(e) * v(columns(e))
+        end do
+    end function hidden_constraint
+
+    !> x <- x - W Phi^T y for a sparse Phi (W = diag(weights), or the identity).
+    pure subroutine subtract_transpose(rows, columns, values, y, x, weights)
+        integer, intent(in) :: rows(:), columns(:)
+        real(wp), intent(in) :: values(:), y(:)
+        real(wp), intent(inout) :: x(:)
+        real(wp), intent(in), optional :: weights(:)
+        real(wp) :: shift(size(x))
+        integer :: e
+        shift = 0
+        do e = 1, size(rows)
+            shift(columns(e)) = shift(columns(e)) + values(e) * y(rows(e))
+        end do
+        if (present(weights)) shift = weights * shift
+        x = x - shift
+    end subroutine subtract_transpose
 
     !> Stage 1: q <- q - Phi^T (Phi Phi^T)^(-1) phi until |phi| is at round-off.
     subroutine project_positions(sys, q, accept, limit, report, status)

@@ -54,6 +54,10 @@ module holosym_newton
     integer, parameter, public :: LINEAR_SOLVER_MIXED = 2
 
     real(wp), parameter :: eps = epsilon(1.0_wp)
+    !> The default tolerance on Newton's corrections: 8 epsilon of the iterate, corrections
+    !! at the round-off of the residual's evaluation (a looser tolerance leaves errors of
+    !! its size in the solution).
+    real(wp), parameter, public :: default_newton_tolerance = 8 * eps
 
     !> A square nonlinear system: extend it and implement `residual` and `jacobian`.
     type, abstract :: nonlinear_system
@@ -90,7 +94,7 @@ module holosym_newton
     !> Knobs of Newton's method; the defaults derive from epsilon(1.0_wp).
     type :: newton_settings_t
         !> Stop when max|dx| <= tolerance * max(scale, max|x|).
-        real(wp) :: tolerance = 8 * eps
+        real(wp) :: tolerance = default_newton_tolerance
         !> A correction that no longer decreases is accepted as converged below this level;
         !! <= 0 (the default) means epsilon**(2/3) (not every compiler folds that real128
         !! power in a default value).
