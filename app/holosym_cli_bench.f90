@@ -71,6 +71,14 @@ module holosym_cli_bench
     !! directory `make bench` runs in.
     character(len=*), parameter :: heyoka_script = "tools/heyoka_bench.py"
 
+    !> A run through --accuracy (`chosen`, a row index) for a (target, system) pair, and
+    !! heyoka's cheapest run reaching the target (`taylor`; 0: none).
+    type :: accuracy_match_t
+        real(wp) :: target = 0
+        character(len=8) :: system = ""
+        integer :: chosen = 0, taylor = 0
+    end type accuracy_match_t
+
     !> Options of `holosym bench`.
     type :: bench_options_t
         character(len=:), allocatable :: out_dir     !! output directory
@@ -1159,6 +1167,28 @@ contains
         end do
     end function accuracy_index
 
+    !> The runs through --accuracy of a precision, one per (target, system) pair that has
+    !! one (`bench_pairs` order), each with heyoka's cheapest run reaching the target.
+    function accuracy_matches(rows, precision) result(matches)
+        type(bench_row_t), intent(in) :: rows(:)
+        character(len=*), intent(in) :: precision
+        type(accuracy_match_t), allocatable :: matches(:)
+        type(accuracy_match_t) :: match
+        integer, allocatable :: pairs(:, :)
+        integer :: k
+        pairs = bench_pairs(precision)
+        allocate (matches(0))
+        do k = 1, size(pairs, 2)
+            match%target = bench_targets(pairs(1, k))
+            match%system = bench_systems(pairs(2, k))
+            match%chosen = accuracy_index(rows, trim(match%system), precision, match%target)
+            if (match%chosen == 0) cycle
+            match%taylor = cheapest(rows, trim(match%system), "heyoka", precision, &
+                                    match%target)
+            matches = [matches, match]
+        end do
+    end function accuracy_matches
+
     !> The tables of the runs through --accuracy, per precision: the plan, the error
     !! reached, the pilot's and the run's CPU seconds, and heyoka's cheapest run reaching
     !! the target against the run alone and against pilot and run together.
@@ -1166,8 +1196,8 @@ contains
         type(bench_row_t), intent(in) :: rows(:)
         type(output_t), intent(inout) :: out
         character(len=*), intent(in) :: level
-        integer :: precision, t, s, k, chosen, taylor
-        integer, allocatable :: pairs(:, :)
+        integer :: precision, k, chosen, taylor
+        type(accuracy_match_t), allocatable :: matches(:)
         character(len=:), allocatable :: prec, line
         do precision = 2, 1, -1
             prec = merge("real128", "real64 ", precision == 2)
@@ -1183,17 +1213,12 @@ contains
             call out%line("| target | system | plan | error at T | pilot s | run s | " // &
                 "heyoka s | x heyoka (run) | x heyoka (pilot + run) |")
             call out%line("|---|---|---|---|---|---|---|---|---|")
-            pairs = bench_pairs(trim(prec))
-            do k = 1, size(pairs, 2)
-                t = pairs(1, k)
-                s = pairs(2, k)
-                chosen = accuracy_index(rows, trim(bench_systems(s)), trim(prec), &
-                                        bench_targets(t))
-                if (chosen == 0) cycle
-                taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
-                                  bench_targets(t))
-                line = "| " // trim(real_str(bench_targets(t))) // " | " // &
-                    trim(bench_systems(s)) // " | "
+            matches = accuracy_matches(rows, trim(prec))
+            do k = 1, size(matches)
+                chosen = matches(k)%chosen
+                taylor = matches(k)%taylor
+                line = "| " // trim(real_str(matches(k)%target)) // " | " // &
+                    trim(matches(k)%system) // " | "
                 if (rows(chosen)%code /= HOLOSYM_SUCCESS) then
                     line = line // "refused: " // trim(status_code_name(rows(chosen)%code)) &
                         // " | — | — | — | "
@@ -1395,8 +1420,8 @@ contains
     subroutine accuracy_verdicts(rows, unit)
         type(bench_row_t), intent(in) :: rows(:)
         type(output_t), intent(inout) :: unit !! the page
-        integer :: precision, t, s, k, chosen, taylor, met, total
-        integer, allocatable :: pairs(:, :)
+        integer :: precision, k, chosen, taylor, met, total
+        type(accuracy_match_t), allocatable :: matches(:)
         real(real64) :: required, ratio, worst
         real(wp) :: overshoot
         character(len=:), allocatable :: prec, smallest
@@ -1408,17 +1433,12 @@ contains
             total = 0
             worst = huge(1.0_real64)
             overshoot = 0
-            pairs = bench_pairs(trim(prec))
-            do k = 1, size(pairs, 2)
-                t = pairs(1, k)
-                s = pairs(2, k)
-                chosen = accuracy_index(rows, trim(bench_systems(s)), trim(prec), &
-                                        bench_targets(t))
-                if (chosen == 0) cycle
+            matches = accuracy_matches(rows, trim(prec))
+            do k = 1, size(matches)
+                chosen = matches(k)%chosen
+                taylor = matches(k)%taylor
                 if (rows(chosen)%code == HOLOSYM_SUCCESS) overshoot = max(overshoot, &
-                    rows(chosen)%error / bench_targets(t))
-                taylor = cheapest(rows, trim(bench_systems(s)), "heyoka", trim(prec), &
-                                  bench_targets(t))
+                    rows(chosen)%error / matches(k)%target)
                 if (taylor == 0) cycle  ! heyoka does not reach it: no comparison
                 total = total + 1
                 if (rows(chosen)%code /= HOLOSYM_SUCCESS) cycle

@@ -44,7 +44,8 @@
 !!   procedures and declarations compared with each other at a state (the integrator runs
 !!   it at the first start; docs/user_system.md).
 !! - [[state_from_velocities]]: a state on the manifold from positions and velocities.
-!! - [[newton_settings_t]]: the Newton settings of an integrator (`integ%newton`).
+!! - [[newton_settings_t]]: the Newton settings of an integrator (`integ%newton`);
+!!   `default_newton_tolerance`, the default of its `tolerance` (8 epsilon).
 !! - `max_order_m`, `max_order_n`, `max_gauss_points`: the limits of M, N and G
 !!   (docs/status-codes.md).
 !! - [[project_to_manifold]], [[projection_report_t]],
@@ -113,7 +114,7 @@ module holosym
     use holosym_model_dumbbell, only: sphere_dumbbell
     use holosym_model_magnetic, only: magnetic_sphere
     use holosym_model_generic, only: generic_pendulum
-    use holosym_newton, only: newton_settings_t
+    use holosym_newton, only: newton_settings_t, default_newton_tolerance
     use holosym_scheme, only: max_order_m, max_order_n, max_gauss_points
     use holosym_accuracy, only: accuracy_plan_t, init_for_accuracy, accuracy_floor
     use holosym_events, only: event_set, event_t, integrate_events, model_events, EVENT_ANY, &
@@ -165,7 +166,7 @@ module holosym
     public :: spherical_pendulum, spring_linkage, planar_pendulum, pendulum_chain
     public :: sphere_dumbbell, magnetic_sphere, generic_pendulum
     ! The Newton settings of an integrator (`integ%newton`).
-    public :: newton_settings_t
+    public :: newton_settings_t, default_newton_tolerance
     ! Limits of (M, N, G) (HOLOSYM_INVALID_ORDER beyond them; docs/status-codes.md).
     public :: max_order_m, max_order_n, max_gauss_points
     ! The integrator, its per-step diagnostics, observer (with the dense output of the step

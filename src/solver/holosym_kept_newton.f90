@@ -108,6 +108,18 @@ module holosym_kept_newton
         logical :: approximate_renewed = .false.
     end type solve_t
 
+    !> The corrections of the current phase of one solve, for its decisions (`decide`).
+    type :: progress_t
+        logical :: lowered = .false.          !! the real64 phase (real128 build)
+        real(wp) :: previous = huge(1.0_wp)   !! the last correction (huge: none yet)
+        real(wp) :: last_rate = 0             !! its ratio to the one before (0: none)
+        integer :: growth = 0                 !! growing corrections in a row
+        logical :: fresh = .false.            !! the factors were formed at this iterate
+        real(wp) :: target = 0, floor = 0     !! the phase's tolerance and round-off floor
+        real(wp) :: limit = 0                 !! contraction limit of the Newton matrix
+        real(wp) :: approximate_limit = 0     !! and of the approximate matrix
+    end type progress_t
+
 contains
 
     !> Allocate for nx unknowns and bandwidths (kl, ku) of the Newton matrix (dense storage
@@ -187,7 +199,8 @@ contains
         call iterate(system, x, state, run, report, status)
     end subroutine kept_newton_solve
 
-    !> Simplified Newton from x (the decisions: `next_action`).
+    !> Simplified Newton from x: evaluate, correct, decide (`decide`), act; the real64
+    !! phase first (real128 build), then the working-precision phase.
     subroutine iterate(system, x, state, run, report, status)
         class(nonlinear_system), intent(inout) :: system
         real(wp), intent(inout) :: x(:)
@@ -195,117 +208,154 @@ contains
         type(solve_t), intent(inout) :: run
         type(kept_report_t), intent(inout) :: report
         type(holosym_status_t), intent(out) :: status
-        real(wp) :: correction, previous, target, floor, rate, last_rate, limit
-        real(wp) :: approximate_limit
-        integer :: iter, growth, action
-        logical :: lowered, fresh, kept, need_factors
+        type(progress_t) :: pr
+        real(wp) :: correction
+        integer :: iter, action
+        logical :: kept, need_factors
 
-        lowered = .not. wp_is_double
-        previous = huge(1.0_wp)
-        growth = 0
-        fresh = .false.
-        rate = 1
-        last_rate = 0
+        pr%lowered = .not. wp_is_double
+        pr%limit = contraction_limit_of(run%settings, banded_contraction_limit)
+        pr%approximate_limit = contraction_limit_of(run%settings, approximate_contraction_limit)
         kept = state%factors%factored .and. .not. run%approximate
         need_factors = run%approximate .or. .not. state%factors%factored
         run%renewed = .false.
         run%watch = .false.
         run%first = 0
         run%low_rate = 1
-        limit = contraction_limit_of(run%settings, banded_contraction_limit)
-        approximate_limit = contraction_limit_of(run%settings, approximate_contraction_limit)
         do iter = 1, run%settings%max_iterations
             report%iterations = report%iterations + 1
             ! The residual at x; new factors, when due, from the same evaluation.
-            call evaluate(system, x, state, lowered, report%iterations, status)
+            call evaluate(system, x, state, pr%lowered, report%iterations, status)
             if (.not. status%ok()) return
             if (need_factors) then
-                call refactor(system, x, state, run, lowered, report, status)
+                call refactor(system, x, state, run, pr%lowered, report, status)
                 if (.not. status%ok()) return
-                fresh = .true.
+                call restart(pr)
                 need_factors = .false.
-                previous = huge(1.0_wp)
-                last_rate = 0
             end if
-            target = run%settings%tolerance
-            floor = run%stagnation
-            if (run%approximate) target = target * approximate_tolerance_factor
-            if (lowered) then
-                target = banded_phase_tolerance
-                floor = banded_phase_floor
-            end if
+            call phase_target(run, pr)
             correction = newton_correction(system, state, run)
-            if (run%approximate) then
-                report%approximate = report%approximate + 1
-                call approximate_action(correction, previous, last_rate, target, floor, &
-                                        run%settings%max_growth, approximate_limit, growth, &
-                                        action)
-            else
-                call next_action(correction, previous, last_rate, target, floor, fresh, &
-                                 run%settings%max_growth, limit, growth, action)
-            end if
+            if (run%approximate) report%approximate = report%approximate + 1
+            call decide(run, pr, correction, action)
             if (run%watch) call first_corrections(state, run, correction, action)
             if (action == ACTION_REFACTOR) then
-                ! Kept factors contract poorly: fresh ones at x, same residual. The
-                ! approximate matrix is formed again at x once (the first guess may be far,
-                ! e.g. the constant one), then gives way to the Newton matrix.
-                if (kept) state%prefer_fresh = .true.
-                if (run%approximate) then
-                    if (run%approximate_renewed) then
-                        state%prefer_newton = .true.
-                        run%approximate = .false.
-                        growth = 0
-                    end if
-                    run%approximate_renewed = .true.
-                end if
-                call refactor(system, x, state, run, lowered, report, status)
+                ! Poor contraction: fresh factors at x, same residual.
+                call before_renewal(state, run, pr, kept)
+                call refactor(system, x, state, run, pr%lowered, report, status)
                 if (.not. status%ok()) return
-                fresh = .true.
-                previous = huge(1.0_wp)
-                last_rate = 0
+                call restart(pr)
                 correction = newton_correction(system, state, run)
-                if (run%approximate) then
-                    call approximate_action(correction, previous, last_rate, target, floor, &
-                                            run%settings%max_growth, approximate_limit, &
-                                            growth, action)
-                else
-                    call next_action(correction, previous, last_rate, target, floor, fresh, &
-                                     run%settings%max_growth, limit, growth, action)
-                end if
+                call decide(run, pr, correction, action)
             end if
             select case (action)
             case (ACTION_DIVERGED)
                 call set_status(status, HOLOSYM_NEWTON_DIVERGED, "Newton corrections " // &
-                    "grew " // int_str(growth) // " times in a row (last " // &
+                    "grew " // int_str(pr%growth) // " times in a row (last " // &
                     real_str(correction) // ") at iteration " // int_str(iter))
                 return
             case (ACTION_CONVERGED)
                 x = x - real(state%delta, wp)
                 if (run%approximate) state%prefer_newton = .false.
-                if (.not. lowered .or. run%settings%tolerance >= banded_phase_tolerance) then
-                    state%ended_lowered = lowered
+                if (.not. pr%lowered .or. run%settings%tolerance >= banded_phase_tolerance) then
+                    state%ended_lowered = pr%lowered
                     state%ended_approximate = run%approximate
                     return
                 end if
-                ! The end of the real64 phase.
-                lowered = .false.
-                if (previous < huge(1.0_wp)) rate = correction / previous
-                need_factors = end_real64_phase(run, rate, correction, previous)
-                if (need_factors) run%approximate = .false.
-                previous = huge(1.0_wp)
-                last_rate = 0
+                need_factors = leave_real64_phase(run, pr, correction)
                 cycle
             end select
             x = x - real(state%delta, wp)
-            if (previous < huge(1.0_wp)) last_rate = correction / previous
-            previous = correction
-            ! Factors formed at an earlier iterate are no longer fresh: a poor rate then
-            ! calls for new ones at the current iterate (full Newton).
-            fresh = .false.
+            call advance(pr, correction)
         end do
         call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "Newton not converged " // &
             "after " // int_str(run%settings%max_iterations) // " iterations")
     end subroutine iterate
+
+    !> Factors were formed at the current iterate: the history of the corrections starts
+    !! again.
+    pure subroutine restart(pr)
+        type(progress_t), intent(inout) :: pr
+        pr%fresh = .true.
+        pr%previous = huge(1.0_wp)
+        pr%last_rate = 0
+    end subroutine restart
+
+    !> The phase's tolerance and round-off floor: the real64 phase's, or the request's
+    !! (looser by `approximate_tolerance_factor` for the approximate matrix).
+    pure subroutine phase_target(run, pr)
+        type(solve_t), intent(in) :: run
+        type(progress_t), intent(inout) :: pr
+        pr%target = run%settings%tolerance
+        pr%floor = run%stagnation
+        if (run%approximate) pr%target = pr%target * approximate_tolerance_factor
+        if (pr%lowered) then
+            pr%target = banded_phase_tolerance
+            pr%floor = banded_phase_floor
+        end if
+    end subroutine phase_target
+
+    !> What to do after `correction`: the policy's decision (`next_action`) for the Newton
+    !! matrix, `approximate_action` for the approximate one.
+    pure subroutine decide(run, pr, correction, action)
+        type(solve_t), intent(in) :: run
+        type(progress_t), intent(inout) :: pr
+        real(wp), intent(in) :: correction
+        integer, intent(out) :: action
+        if (run%approximate) then
+            call approximate_action(correction, pr%previous, pr%last_rate, pr%target, &
+                                    pr%floor, run%settings%max_growth, pr%approximate_limit, &
+                                    pr%growth, action)
+        else
+            call next_action(correction, pr%previous, pr%last_rate, pr%target, pr%floor, &
+                             pr%fresh, run%settings%max_growth, pr%limit, pr%growth, action)
+        end if
+    end subroutine decide
+
+    !> Before new factors for a poor contraction: kept factors are formed fresh at each
+    !! solve from now on; the approximate matrix is formed again at x once (the first
+    !! guess may be far, e.g. the constant one), then gives way to the Newton matrix.
+    pure subroutine before_renewal(state, run, pr, kept)
+        type(kept_newton_t), intent(inout) :: state
+        type(solve_t), intent(inout) :: run
+        type(progress_t), intent(inout) :: pr
+        logical, intent(in) :: kept !! the solve began with kept factors
+        if (kept) state%prefer_fresh = .true.
+        if (.not. run%approximate) return
+        if (run%approximate_renewed) then
+            state%prefer_newton = .true.
+            run%approximate = .false.
+            pr%growth = 0
+        end if
+        run%approximate_renewed = .true.
+    end subroutine before_renewal
+
+    !> The real64 phase has converged: the working-precision phase follows, with fresh
+    !! factors when `end_real64_phase` says they pay (true: form them) and the history of
+    !! the corrections begun again.
+    logical function leave_real64_phase(run, pr, correction) result(need_factors)
+        type(solve_t), intent(inout) :: run
+        type(progress_t), intent(inout) :: pr
+        real(wp), intent(in) :: correction !! the real64 phase's last correction
+        real(wp) :: rate
+        pr%lowered = .false.
+        rate = 1
+        if (pr%previous < huge(1.0_wp)) rate = correction / pr%previous
+        need_factors = end_real64_phase(run, rate, correction, pr%previous)
+        if (need_factors) run%approximate = .false.
+        pr%previous = huge(1.0_wp)
+        pr%last_rate = 0
+    end function leave_real64_phase
+
+    !> A correction applied that did not end the phase: the history moves on; factors
+    !! formed at an earlier iterate are no longer fresh (a poor rate then calls for new
+    !! ones at the current iterate: full Newton).
+    pure subroutine advance(pr, correction)
+        type(progress_t), intent(inout) :: pr
+        real(wp), intent(in) :: correction
+        if (pr%previous < huge(1.0_wp)) pr%last_rate = correction / pr%previous
+        pr%previous = correction
+        pr%fresh = .false.
+    end subroutine advance
 
     !> The residual at x, in real64 (`lowered`) or working precision, into f_low (and f).
     !! An iterate or residual beyond the range of real64 (h far beyond the system's scale)
