@@ -12,7 +12,8 @@ module holosym_manifold
     private
 
     public :: manifold_residuals, full_rank_constraints, sparse_manifold_residuals, &
-        sparse_full_rank_constraints, gram_band, band_cholesky, band_cholesky_solve
+        sparse_full_rank_constraints, gram_band, band_cholesky, band_cholesky_solve, &
+        sparse_scaled_position
 
     !> Default tolerance on the scaled residuals: 2**10 epsilon, room for the round-off of
     !! evaluating phi and Phi H_p with a few hundred operations.
@@ -117,7 +118,7 @@ contains
         real(wp), intent(out) :: scaled_position !! max |phi_l| / scale_l
         real(wp), intent(out) :: scaled_velocity !! max |(Phi H_p)_l| / scale_l
         real(wp), intent(out), optional :: velocity_field(:) !! H_p(q, p) (n), also for m = 0
-        real(wp), allocatable :: phi(:), values(:), hp(:), hidden(:), row_max(:), row_sum(:)
+        real(wp), allocatable :: phi(:), values(:), hp(:), hidden(:), row_sum(:)
         integer :: e, l
         position = 0
         velocity = 0
@@ -127,8 +128,7 @@ contains
             if (present(velocity_field)) call sys%dh_dp(q, p, velocity_field)
             return
         end if
-        allocate (phi(sys%m), values(size(rows)), hp(sys%n), hidden(sys%m), row_max(sys%m), &
-                  row_sum(sys%m))
+        allocate (phi(sys%m), values(size(rows)), hp(sys%n), hidden(sys%m), row_sum(sys%m))
         call sys%constraint(q, phi)
         call sys%constraint_jacobian_values(q, rows, columns, values)
         call sys%dh_dp(q, p, hp)
@@ -139,19 +139,33 @@ contains
             return
         end if
         hidden = 0
-        row_max = 0
         row_sum = 0
         do e = 1, size(rows)
             l = rows(e)
             hidden(l) = hidden(l) + values(e) * hp(columns(e))
-            row_max(l) = max(row_max(l), abs(values(e)))
             row_sum(l) = row_sum(l) + abs(values(e)) * abs(hp(columns(e)))
         end do
         position = maxval(abs(phi))
         velocity = maxval(abs(hidden))
-        scaled_position = maxval(abs(phi) / (1 + maxval(abs(q)) * row_max))
+        scaled_position = sparse_scaled_position(q, phi, rows, values)
         scaled_velocity = maxval(abs(hidden) / (1 + row_sum))
     end subroutine sparse_manifold_residuals
+
+    !> The scaled residual of phi, max_l |phi_l| / (1 + |q| max_c |Phi_lc|), from Phi's
+    !! values on its pattern (constraint `rows(e)` of entry e).
+    pure real(wp) function sparse_scaled_position(q, phi, rows, values) result(scaled)
+        real(wp), intent(in) :: q(:)      !! coordinates (n)
+        real(wp), intent(in) :: phi(:)    !! phi(q) (m)
+        integer, intent(in) :: rows(:)    !! pattern of Phi: constraint of each entry
+        real(wp), intent(in) :: values(:) !! Phi on its pattern
+        real(wp) :: row_max(size(phi))
+        integer :: e
+        row_max = 0
+        do e = 1, size(rows)
+            row_max(rows(e)) = max(row_max(rows(e)), abs(values(e)))
+        end do
+        scaled = maxval(abs(phi) / (1 + maxval(abs(q)) * row_max))
+    end function sparse_scaled_position
 
     !> All residuals NaN: the system returned a NaN or infinite value (the callers report
     !! it); computing with it would raise IEEE exceptions (0 * Inf).

@@ -27,7 +27,7 @@ module holosym_projection
     use holosym_linalg, only: lu_factor, lu_solve
     use holosym_problem, only: constrained_hamiltonian, clear_refusal, check_refusal
     use holosym_manifold, only: manifold_residuals, manifold_tolerance_default, gram_band, &
-        band_cholesky, band_cholesky_solve
+        band_cholesky, band_cholesky_solve, sparse_scaled_position
     implicit none
     private
 
@@ -171,8 +171,8 @@ contains
     !! q <- q - W Phi^T G^-1 phi(q) with G = Phi W Phi^T (band Cholesky in `order`),
     !! repeated until the scaled residual of phi is at round-off, then at the new q
     !! p <- p - Phi^T G^-1 Phi H_p(q, p), exact in one step for such an H. `position` and
-    !! `velocity` are max |phi| and max |Phi H_p| at the result. Work: a few evaluations of phi, Phi and H_p, and
-    !! m times G's band squared. On failure q and p are unchanged. Codes:
+    !! `velocity` are max |phi| and max |Phi H_p| at the result. Work: a few evaluations
+    !! of phi, Phi and H_p, and m times G's band squared. On failure q and p are unchanged. Codes:
     !! HOLOSYM_NONFINITE_VALUE, HOLOSYM_RANK_DEFICIENT_CONSTRAINTS (a pivot of G below
     !! m epsilon relative), HOLOSYM_NEWTON_NOT_CONVERGED (phi above `accept` after
     !! `sparse_iterations` corrections: the state was not close).
@@ -190,7 +190,7 @@ contains
         type(holosym_status_t), intent(out) :: status !! outcome
         real(wp), allocatable :: band(:, :)
         real(wp) :: qw(size(q)), pw(size(p)), phi(sys%m), values(size(rows)), hp(size(p))
-        real(wp) :: multipliers(sys%m)
+        real(wp) :: multipliers(sys%m), scaled
         integer :: iter
         position = 0
         velocity = 0
@@ -203,12 +203,13 @@ contains
             if (.not. status%ok()) return
             call sparse_gram(sys, rows, columns, order, inverse_mass, values, band, status)
             if (.not. status%ok()) return
-            if (scaled_phi(qw, phi, rows, values) <= round_off_target) exit
+            scaled = sparse_scaled_position(qw, phi, rows, values)
+            if (scaled <= round_off_target) exit
             if (iter == sparse_iterations) then
-                if (scaled_phi(qw, phi, rows, values) <= manifold_tolerance_default) exit
+                if (scaled <= manifold_tolerance_default) exit
                 call set_status(status, HOLOSYM_NEWTON_NOT_CONVERGED, "position projection " &
                     // "not converged after " // int_str(iter) // " corrections (scaled " // &
-                    "max|phi| = " // real_str(scaled_phi(qw, phi, rows, values)) // ")")
+                    "max|phi| = " // real_str(scaled) // ")")
                 return
             end if
             multipliers = phi
@@ -260,19 +261,6 @@ contains
             int_str(failed) // " of " // int_str(sys%m) // " of Phi M^-1 Phi^T below m " // &
             "epsilon relative")
     end subroutine sparse_gram
-
-    !> max_l |phi_l| / (1 + |q| max_c |Phi_lc|), the scaled residual of `manifold_residuals`.
-    pure real(wp) function scaled_phi(q, phi, rows, values) result(scaled)
-        real(wp), intent(in) :: q(:), phi(:), values(:)
-        integer, intent(in) :: rows(:)
-        real(wp) :: row_max(size(phi))
-        integer :: e
-        row_max = 0
-        do e = 1, size(rows)
-            row_max(rows(e)) = max(row_max(rows(e)), abs(values(e)))
-        end do
-        scaled = maxval(abs(phi) / (1 + maxval(abs(q)) * row_max))
-    end function scaled_phi
 
     !> Phi v for a sparse Phi.
     pure function hidden_constraint(m, rows, columns, values, v) result(hidden)
